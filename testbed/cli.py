@@ -1,0 +1,123 @@
+"""The `testbed` command line.
+
+  testbed scenes                         list the shipped scenes
+  testbed run SCENE [--out DIR] [--duration S] [--set key=value ...]
+  testbed run-all [--out DIR] [--duration S] [--models hydroelastic point]
+
+Errors in the user's input (scene files, overrides, options) print one line naming
+the file and field and exit with status 2; a simulation that fails (solver
+divergence) exits with status 1. Nothing is left half-written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import sys
+from pathlib import Path
+
+from testbed.errors import SimulationError, TestbedError
+
+
+def _timestamp() -> str:
+    return datetime.datetime.now().strftime("%Y%m%d-%H%M%S")
+
+
+def _format_summary(summary: dict) -> str:
+    lines = [
+        f"scene {summary['scene']}: {summary['steps']} steps of {summary['time_step_s'] * 1e3:g} ms, "
+        f"wall {summary['wall_time_s']:.2f} s, real-time factor {summary['real_time_factor']:.2f}",
+        f"  contact model: {summary['contact_model']} ({summary['approximation']}); effects: {', '.join(summary['effects'])}",
+    ]
+    if "contact_rows" in summary:
+        lines.append(
+            f"  contacts: {summary['contact_rows']} rows, up to {summary['max_contacts_per_step']} per step; "
+            f"max penetration {summary['max_penetration_m'] * 1e3:.3f} mm"
+        )
+    else:
+        lines.append("  contacts: not recorded (declare the contact_log effect)")
+    if "shadow_cop_distance_max_m" in summary:
+        lines.append(
+            f"  shadow ({summary['shadow_model']}): worst centre-of-pressure disagreement "
+            f"{summary['shadow_cop_distance_max_m'] * 100:.1f} cm at step {summary['shadow_worst_step']}, "
+            f"max normal angle {summary['shadow_normal_angle_max_deg']:.2f} deg"
+        )
+    if not summary.get("finite_state", True):
+        lines.append("  WARNING: the final state is not finite (the simulation diverged)")
+    return "\n".join(lines)
+
+
+def cmd_scenes(args) -> int:
+    from testbed.scenario import load_scenario, shipped_scenes
+
+    for name, path in shipped_scenes().items():
+        scenario = load_scenario(path)
+        print(f"{name:20s} {len(scenario.containers)} containers, {scenario.duration:g} s, "
+              f"effects: {', '.join(scenario.declared_effects())}\n{'':20s} {scenario.description}")
+    return 0
+
+
+def cmd_run(args) -> int:
+    from testbed.scenario import load_scenario, resolve_scene_path
+    from testbed.simulate import run_scenario
+
+    path = resolve_scene_path(args.scene)
+    scenario = load_scenario(path, overrides=args.set or [])
+    if args.duration is not None and not args.duration > 0:
+        raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
+    out = Path(args.out) if args.out else Path("reports") / "runs" / f"{scenario.name}-{_timestamp()}"
+    result = run_scenario(scenario, out_dir=out, duration=args.duration, progress=not args.quiet, source=path)
+    print(_format_summary(result.summary))
+    print(f"  records: {out}")
+    return 0
+
+
+def cmd_run_all(args) -> int:
+    from testbed.batch import run_all
+
+    out = Path(args.out) if args.out else Path("reports") / f"run-all-{_timestamp()}"
+    report = run_all(out, duration=args.duration, models=args.models, progress=not args.quiet)
+    print(report)
+    print(f"report: {out}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="testbed", description="Container contact testbed (Drake).")
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("scenes", help="list the shipped scenes").set_defaults(func=cmd_scenes)
+    run = sub.add_parser("run", help="simulate one scene and write its records")
+    run.add_argument("scene", help="a scene YAML file or the name of a shipped scene")
+    run.add_argument("--out", help="output directory (default reports/runs/<scene>-<time>)")
+    run.add_argument("--duration", type=float, help="simulated time [s] (default: the scene's)")
+    run.add_argument("--set", action="append", metavar="KEY=VALUE",
+                     help="override a scene field, e.g. --set effects.contact.model=point --set containers[0].mass=25000")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.set_defaults(func=cmd_run)
+    run_all = sub.add_parser("run-all", help="run every shipped scene under each contact model; write a summary report")
+    run_all.add_argument("--out", help="report directory (default reports/run-all-<time>)")
+    run_all.add_argument("--duration", type=float, help="override every scene's simulated time [s]")
+    run_all.add_argument("--models", nargs="+", default=["hydroelastic", "point"],
+                         help="contact models to run each scene with (default: hydroelastic point)")
+    run_all.add_argument("--quiet", action="store_true", help="no progress bars")
+    run_all.set_defaults(func=cmd_run_all)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except SimulationError as e:
+        print(f"testbed: simulation failed: {e}", file=sys.stderr)
+        return 1
+    except TestbedError as e:
+        print(f"testbed: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("testbed: interrupted; no output was written", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

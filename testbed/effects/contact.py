@@ -1,0 +1,56 @@
+"""`contact`: collision geometry and the contact model that drives the dynamics.
+
+Without this effect the scene has no collision geometry at all (bodies fall freely).
+"""
+
+
+import dataclasses
+import math
+import typing
+
+from testbed.effects import register
+from testbed.effects.base import Effect, ModelPlan
+
+CONTACT_MODELS = ("hydroelastic", "point", "hydroelastic_with_fallback")
+APPROXIMATIONS = ("sap", "tamsi", "similar", "lagged")
+
+
+@dataclasses.dataclass
+class ContactConfig:
+    model: str = "hydroelastic_with_fallback"  # one of CONTACT_MODELS (Drake's names)
+    approximation: str = "sap"  # Drake's discrete_contact_approximation, one of APPROXIMATIONS
+    # Replaces the containers' drake:hydroelastic_margin [m] when set (SDF: 0; sdf/README.md).
+    hydroelastic_margin: typing.Optional[float] = None
+
+
+@register
+class ContactEffect(Effect):
+    name = "contact"
+    Config = ContactConfig
+    order = 0
+
+    def check(self, effects) -> None:
+        super().check(effects)
+        if self.config.model not in CONTACT_MODELS:
+            raise self.fail("model", f"unknown contact model {self.config.model!r}; expected one of: {', '.join(CONTACT_MODELS)}")
+        if self.config.approximation not in APPROXIMATIONS:
+            raise self.fail("approximation", f"unknown discrete approximation {self.config.approximation!r}; expected one of: {', '.join(APPROXIMATIONS)}")
+        margin = self.config.hydroelastic_margin
+        if margin is not None and not (math.isfinite(margin) and margin >= 0):
+            raise self.fail("hydroelastic_margin", f"expected a non-negative length [m], got {margin}")
+
+    def plan(self, plan: ModelPlan) -> None:
+        plan.collision = True
+        plan.contact_model = self.config.model
+        plan.discrete_contact_approximation = self.config.approximation
+        if self.config.hydroelastic_margin is not None:
+            plan.proximity_overrides["hydroelastic_margin"] = self.config.hydroelastic_margin
+
+
+def driving_kind(model: str) -> str:
+    """'hydroelastic' or 'point': the kind of answer the driving model gives for two boxes.
+
+    With hydroelastic_with_fallback every container pair is compliant-compliant or
+    compliant-rigid, so it is hydroelastic; point contact is used only as fallback.
+    """
+    return "point" if model == "point" else "hydroelastic"

@@ -1,0 +1,152 @@
+"""`contact_log`: per-step records of body states and ground-truth contacts.
+
+With Drake's default sampled output ports, the contact results seen after step k
+were computed from the state of step k-1; the logger pairs them with that state's
+poses and signed distances, so every contact row is consistent with its poses.
+
+Adds one system, `contact_logger`, that publishes every time step and records:
+- `steps` table: time, poses, spatial velocities and mechanical energy of every
+  free container;
+- `contacts` table: the driving model's answer for every contacting pair
+  (testbed/contact_extraction.py lists the columns) plus both bodies' poses.
+"""
+
+
+import dataclasses
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import QueryObject
+from pydrake.multibody.plant import ContactResults
+from pydrake.systems.framework import LeafSystem
+
+from testbed import contact_extraction
+from testbed.contact_geometry import cross
+from testbed.effects import register
+from testbed.effects.base import Effect
+from testbed.records import TableBuilder
+
+GRAVITY = 9.81  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
+
+
+@dataclasses.dataclass
+class ContactLogConfig:
+    pass
+
+
+def _pose_columns(poses) -> tuple[np.ndarray, np.ndarray]:
+    """poses: list of RigidTransform -> p (n, 3) [m], quaternion wxyz (n, 4)."""
+    p = np.array([X.translation() for X in poses])
+    q = np.array([X.rotation().ToQuaternion().wxyz() for X in poses])
+    return p, q
+
+
+class ContactLogger(LeafSystem):
+    """Records steps and contacts at every plant time step (a periodic publish)."""
+
+    def __init__(self, assembly):
+        super().__init__()
+        self.set_name("contact_logger")
+        plant = assembly.plant
+        self._plant_bodies = [assembly.bodies[n].index() for n in assembly.body_names]
+        free_names = [c.name for c in assembly.scenario.containers if not c.fixed]
+        self._free = [assembly.body_names.index(n) for n in free_names]
+        self._free_body_index = [self._plant_bodies[i] for i in self._free]
+        self._mass = np.array([assembly.bodies[n].default_mass() for n in free_names])  # (m,) [kg]
+        self._com_B = np.array([assembly.bodies[n].default_com() for n in free_names])  # (m, 3) [m]
+        self._I_Bcm_B = np.array([  # (m, 3, 3) [kg m^2] about the COM, in the body frame
+            assembly.bodies[n].default_spatial_inertia().Shift(c).CalcRotationalInertia().CopyToFullMatrix3()
+            for n, c in zip(free_names, self._com_B)
+        ]).reshape(-1, 3, 3)
+        self._owner = None
+        self._query_port = self.DeclareAbstractInputPort("query", AbstractValue.Make(QueryObject()))
+        self._results_port = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
+        self._poses_port = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self._velocities_port = self.DeclareAbstractInputPort(
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate()
+        )
+        builder = assembly.builder
+        builder.AddSystem(self)
+        builder.Connect(assembly.scene_graph.get_query_output_port(), self._query_port)
+        builder.Connect(plant.get_contact_results_output_port(), self._results_port)
+        builder.Connect(plant.get_body_poses_output_port(), self._poses_port)
+        builder.Connect(plant.get_body_spatial_velocities_output_port(), self._velocities_port)
+        self._assembly = assembly
+        self.DeclarePeriodicPublishEvent(plant.time_step(), 0.0, self._record)
+        self.steps: list[tuple] = []
+        self.contacts = TableBuilder()
+        self._sampled = plant.has_sampled_output_ports()
+        self._pending = None
+
+    def _record(self, context) -> None:
+        query = self._query_port.Eval(context)
+        if self._owner is None:
+            from testbed.builder import geometry_body_index
+
+            self._owner = geometry_body_index(self._assembly, query)
+        poses = self._poses_port.Eval(context)
+        velocities = self._velocities_port.Eval(context)
+        p, q = _pose_columns([poses[i] for i in self._plant_bodies])  # (nb, 3), (nb, 4)
+        V = np.array([np.concatenate([velocities[i].rotational(), velocities[i].translational()])
+                      for i in self._free_body_index]).reshape(-1, 6)
+        R = np.array([poses[self._plant_bodies[i]].rotation().matrix() for i in self._free]).reshape(-1, 3, 3)
+        step = len(self.steps)
+        self.steps.append((context.get_time(), p[self._free], q[self._free], V, *self._energy(p[self._free], R, V)))
+        geometry = (step, context.get_time(), p, q, contact_extraction.near_distances(query))
+        if self._sampled:
+            # Sampled ports report the contacts of the last discrete update, computed
+            # from the previous step's state: pair them with that state's geometry.
+            geometry, self._pending = self._pending, geometry
+            if geometry is None:
+                return
+        step, t, p, q, distances = geometry
+        columns = contact_extraction.from_contact_results(self._results_port.Eval(context), distances, self._owner)
+        columns["p_WA"], columns["q_WA"] = p[columns["a"]], q[columns["a"]]
+        columns["p_WB"], columns["q_WB"] = p[columns["b"]], q[columns["b"]]
+        self.contacts.append(step, t, columns)
+
+    def _energy(self, p_WBo, R_WB, V_WB):
+        """Kinetic and potential energy [J] of the free containers (sums over bodies)."""
+        w, v_Bo = V_WB[:, :3], V_WB[:, 3:]
+        p_BoBcm_W = np.einsum("nij,nj->ni", R_WB, self._com_B)
+        v_cm = v_Bo + cross(w, p_BoBcm_W)
+        I_W = np.einsum("nij,njk,nlk->nil", R_WB, self._I_Bcm_B, R_WB)
+        kinetic = 0.5 * np.sum(self._mass * np.einsum("ni,ni->n", v_cm, v_cm)) + 0.5 * np.einsum("ni,nij,nj->", w, I_W, w)
+        potential = GRAVITY * np.sum(self._mass * (p_WBo[:, 2] + p_BoBcm_W[:, 2]))
+        return kinetic, potential
+
+    def tables(self) -> dict[str, dict]:
+        m = len(self._free)
+        if self.steps:
+            t, p, q, V, ke, pe = (np.asarray(x) for x in zip(*self.steps))
+        else:
+            t, p, q, V, ke, pe = np.zeros(0), np.zeros((0, m, 3)), np.zeros((0, m, 4)), np.zeros((0, m, 6)), np.zeros(0), np.zeros(0)
+        steps = {"time": t, "p_WB": p, "q_WB": q, "V_WB": V, "kinetic_energy": ke, "potential_energy": pe}
+        empty = contact_extraction.empty_columns()
+        empty.update(p_WA=np.zeros((0, 3)), q_WA=np.zeros((0, 4)), p_WB=np.zeros((0, 3)), q_WB=np.zeros((0, 4)))
+        return {"steps": steps, "contacts": self.contacts.build(empty)}
+
+
+@register
+class ContactLogEffect(Effect):
+    name = "contact_log"
+    Config = ContactLogConfig
+    order = 10
+
+    def add_systems(self, assembly) -> list:
+        self.logger = ContactLogger(assembly)
+        return [self.logger]
+
+    def collect(self, tables: dict[str, dict]) -> None:
+        tables.update(self.logger.tables())
+
+    def summarize(self, tables: dict[str, dict]) -> dict:
+        contacts, steps = tables["contacts"], tables["steps"]
+        energy = steps["kinetic_energy"] + steps["potential_energy"]
+        return {
+            "logged_steps": int(len(steps["time"])),
+            "contact_rows": int(len(contacts["a"])),
+            "max_contacts_per_step": int(np.bincount(contacts["step"]).max()) if len(contacts["step"]) else 0,
+            "max_penetration_m": float(max(0.0, -np.nanmin(contacts["phi"]))) if len(contacts["phi"]) else 0.0,
+            "energy_drift_J": float(energy[-1] - energy[0]) if len(energy) else 0.0,
+        }

@@ -1,0 +1,61 @@
+"""The testbed's exceptions: one base class, specific subclasses.
+
+Every message names where the problem is (file, field) and what was expected, so
+the CLI can print it verbatim and exit with status 2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+
+class TestbedError(Exception):
+    """Base class of every error the testbed raises on purpose."""
+
+    __test__ = False  # not a pytest test class despite the name
+
+
+class UnknownChoiceError(TestbedError, ValueError):
+    """A name (container type, effect, contact model, ...) that is not one of the valid choices."""
+
+    def __init__(self, what: str, value: object, choices: Iterable[str]):
+        self.what = what
+        self.value = value
+        self.choices = list(choices)
+        super().__init__(f"unknown {what} {value!r}; expected one of: {', '.join(self.choices)}")
+
+
+class ScenarioError(TestbedError, ValueError):
+    """A scene file that cannot be loaded or is physically invalid.
+
+    path: the scene file (or '<string>'); field: dotted path of the offending field
+    (e.g. 'containers[1].mass'), or '' when the whole file is at fault.
+    """
+
+    def __init__(self, path: object, field: str, problem: str):
+        self.path = str(path)
+        self.field = field
+        self.problem = problem
+        where = f"{self.path}: {field}" if field else self.path
+        super().__init__(f"{where}: {problem}")
+
+
+class ModelError(TestbedError):
+    """A model file (SDF) that is missing or cannot be parsed."""
+
+
+class OptionalDependencyError(TestbedError, ImportError):
+    """An optional dependency is missing; the message gives the install command."""
+
+    def __init__(self, package: str, purpose: str, extra: str):
+        super().__init__(
+            f"{purpose} needs the optional package '{package}', which is not installed; "
+            f"install it with: pip install -e '.[{extra}]'"
+        )
+
+
+class SimulationError(TestbedError, RuntimeError):
+    """Drake's simulator failed (e.g. the contact solver did not converge).
+
+    Not an input error: the CLI exits with status 1, and no output is written.
+    """

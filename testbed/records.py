@@ -1,0 +1,108 @@
+"""Run records: columnar tables in .npz files, a JSON summary, written atomically.
+
+A run directory holds:
+  scenario.yaml   the fully resolved scenario (yaml_dump_typed), to reproduce the run
+  steps.npz       one row per logged step (time, poses, velocities, energy)
+  contacts.npz    one row per contact per step (testbed/contact_extraction.py columns,
+                  plus `step` and `time`), the driving model's answer
+  shadow.npz      same columns, the shadow model's answer on the same states
+  <effect>.npz    further tables added by effects (e.g. learned comparison)
+  summary.json    headline figures
+
+Read a table with `np.load(path)` (arrays keyed by column) or `load_table`; turn it
+into a pandas DataFrame with `to_frame` (vector columns become `name_0..name_k`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+
+class TableBuilder:
+    """Collects per-step column dicts and concatenates them once at the end."""
+
+    def __init__(self):
+        self._chunks: list[dict[str, np.ndarray]] = []
+
+    def append(self, step: int, time: float, columns: dict[str, np.ndarray]) -> None:
+        n = len(next(iter(columns.values()))) if columns else 0
+        if n == 0:
+            return
+        chunk = dict(columns)
+        chunk["step"] = np.full(n, step, dtype=np.int64)
+        chunk["time"] = np.full(n, time)
+        self._chunks.append(chunk)
+
+    def build(self, empty: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        if not self._chunks:
+            out = dict(empty)
+            out["step"] = np.zeros(0, dtype=np.int64)
+            out["time"] = np.zeros(0)
+            return out
+        return {k: np.concatenate([c[k] for c in self._chunks]) for k in self._chunks[0]}
+
+
+def save_table(path: Path, table: dict[str, np.ndarray]) -> None:
+    np.savez_compressed(path, **table)
+
+
+def load_table(path: str | Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {k: data[k] for k in data.files}
+
+
+def to_frame(table: dict[str, np.ndarray]):
+    """A pandas DataFrame with vector columns split into name_0, name_1, ... (needs pandas)."""
+    import pandas as pd  # optional; only this helper needs it
+
+    flat = {}
+    for key, value in table.items():
+        if value.ndim == 1:
+            flat[key] = value
+        else:
+            for i, column in enumerate(value.reshape(len(value), -1).T):
+                flat[f"{key}_{i}"] = column
+    return pd.DataFrame(flat)
+
+
+def _json_default(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
+def write_json(path: Path, data: dict) -> None:
+    path.write_text(json.dumps(data, indent=2, default=_json_default, allow_nan=True) + "\n")
+
+
+@contextlib.contextmanager
+def atomic_directory(final: str | Path):
+    """Yields a temporary directory beside `final`; renames it to `final` only on success.
+
+    An existing `final` is replaced only after the new one is complete; on any error
+    the temporary directory is removed and `final` is left as it was.
+    """
+    final = Path(final).resolve()
+    final.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.partial-", dir=final.parent))
+    try:
+        yield tmp
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    if final.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{final.name}.old-", dir=final.parent))
+        os.replace(final, old / "x")
+        os.replace(tmp, final)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, final)

@@ -1,0 +1,364 @@
+"""Scenes: the typed `Scenario`, its YAML loading, overrides and validation.
+
+A scene file is YAML in Drake's conventions (pydrake.common.yaml.yaml_load_typed):
+
+    name: two_stack
+    duration: 2.0                      # simulated time [s]
+    plant: {time_step: 0.001}          # Drake's MultibodyPlantConfig
+    containers:
+    - name: bottom
+      type: 1CC                        # 1CC | 1AA | 1AAA (testbed/containers.py)
+      mass: 20000                      # total mass [kg]; omitted = tare
+      com_offset: [0.5, 0, 0]          # COM from the geometric centre, frame C [m]
+      X_WC: {translation: [0, 0, 1.2955]}  # pose of C in world; rotation: !Rpy {deg: [..]}
+      V_WC: [0, 0, 0, 0, 0, 0]         # [wx wy wz vx vy vz] in W [rad/s, m/s]
+      fixed: false                     # true = welded to the world
+    effects:                           # only these are built (testbed/effects/)
+      contact: {model: hydroelastic, approximation: sap}
+      friction: {}
+
+The contact model and discrete approximation are set only in `effects.contact`;
+giving `plant.contact_model` or `plant.discrete_contact_approximation` is an
+error, so there is one source of truth. Everything a run used is written back with
+`dump_scenario` next to its output.
+"""
+
+
+import dataclasses
+import math
+import typing
+from pathlib import Path
+
+import numpy as np
+import yaml
+from pydrake.common.schema import Transform
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.systems.analysis import SimulatorConfig
+
+from testbed.containers import CONTAINER_TYPES
+from testbed.effects import registry
+from testbed.errors import ScenarioError
+
+SCENES_DIR = Path(__file__).resolve().parent / "scenes"
+
+
+@dataclasses.dataclass
+class ContainerSpec:
+    """One container in a scene (see the module docstring for the YAML form)."""
+
+    name: str = "container"
+    type: str = "1CC"
+    mass: typing.Optional[float] = None  # [kg] total; None = tare
+    com_offset: typing.List[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    X_WC: Transform = dataclasses.field(default_factory=Transform)
+    V_WC: typing.List[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)
+    fixed: bool = False
+
+    def total_mass(self) -> float:
+        """[kg]"""
+        return CONTAINER_TYPES[self.type].tare_mass if self.mass is None else float(self.mass)
+
+    def pose(self):
+        """X_WC as a pydrake RigidTransform."""
+        return self.X_WC.GetDeterministicValue()
+
+
+def _effects_dataclass():
+    """`Effects`: one optional field per registered effect, None = not declared."""
+    fields = [
+        (name, typing.Optional[cls.Config], dataclasses.field(default=None))
+        for name, cls in registry().items()
+    ]
+    cls = dataclasses.make_dataclass("Effects", fields)
+    cls.__module__ = __name__
+    return cls
+
+
+Effects = _effects_dataclass()
+
+
+def _default_plant() -> MultibodyPlantConfig:
+    # Drake's defaults except the time step (1 ms, the crane simulators' rate).
+    # Sampled output ports stay on: the contact logger pairs each sampled result
+    # with the state it came from, and unsampled ports would solve contact twice.
+    return MultibodyPlantConfig(time_step=1e-3)
+
+
+def _default_effects():
+    cfg = {name: None for name in registry()}
+    cfg["contact"] = registry()["contact"].Config()
+    cfg["friction"] = registry()["friction"].Config()
+    return Effects(**cfg)
+
+
+def _default_containers() -> list[ContainerSpec]:
+    h = CONTAINER_TYPES["1CC"].size[2]
+    return [ContainerSpec(name="box", type="1CC", mass=20000.0, X_WC=Transform(translation=[0, 0, h / 2]))]
+
+
+@dataclasses.dataclass
+class Scenario:
+    """A whole scene. `Scenario()` is the always-valid "defaults" scene."""
+
+    name: str = "defaults"
+    description: str = "One loaded 20 ft container resting on the quay."
+    duration: float = 1.0  # [s] simulated
+    ground: bool = True  # the quay slab (sdf/ground/quay_ground.sdf)
+    overlap_tolerance: float = 5e-3  # [m] largest allowed penetration at t = 0
+    plant: MultibodyPlantConfig = dataclasses.field(default_factory=_default_plant)
+    simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
+    containers: typing.List[ContainerSpec] = dataclasses.field(default_factory=_default_containers)
+    effects: Effects = dataclasses.field(default_factory=_default_effects)
+
+    def declared_effects(self) -> list[str]:
+        """Names of the declared effects, in build order."""
+        return [name for name in registry() if getattr(self.effects, name) is not None]
+
+
+# ----------------------------------------------------------------------------- loading
+
+
+class _Tagged:
+    """A YAML node with a `!Tag` kept through PyYAML round trips (e.g. !Rpy)."""
+
+    def __init__(self, tag, value):
+        self.tag, self.value = tag, value
+
+
+class _Loader(yaml.SafeLoader):
+    pass
+
+
+class _Dumper(yaml.SafeDumper):
+    pass
+
+
+def _construct_tagged(loader, tag_suffix, node):
+    if isinstance(node, yaml.MappingNode):
+        value = loader.construct_mapping(node, deep=True)
+    elif isinstance(node, yaml.SequenceNode):
+        value = loader.construct_sequence(node, deep=True)
+    else:
+        value = loader.construct_scalar(node)
+    return _Tagged("!" + tag_suffix, value)
+
+
+_Loader.add_multi_constructor("!", _construct_tagged)
+_Dumper.add_representer(
+    _Tagged,
+    lambda dumper, t: (
+        dumper.represent_mapping(t.tag, t.value)
+        if isinstance(t.value, dict)
+        else dumper.represent_sequence(t.tag, t.value)
+        if isinstance(t.value, list)
+        else dumper.represent_scalar(t.tag, t.value)
+    ),
+)
+
+
+def _fields_of(schema) -> dict[str, object] | None:
+    """Field name -> type for a Python dataclass or a pydrake config class; else None."""
+    if dataclasses.is_dataclass(schema):
+        return typing.get_type_hints(schema)
+    if hasattr(schema, "__fields__") and isinstance(schema.__fields__, tuple):
+        return {f.name: f.type for f in schema.__fields__}
+    return None
+
+
+def _join(path: str, key) -> str:
+    return f"{path}[{key}]" if isinstance(key, int) else (f"{path}.{key}" if path else str(key))
+
+
+def _check_raw(value, schema, path: str, source) -> None:
+    """Checks raw YAML data against `schema`, naming the field path on any mismatch."""
+    fields = _fields_of(schema)
+    origin = typing.get_origin(schema)
+    if fields is not None:
+        if schema is Transform:
+            if not isinstance(value, dict):
+                raise ScenarioError(source, path, "expected a transform mapping {translation: [x, y, z], rotation: !Rpy {deg: [r, p, y]}}")
+            unknown = set(value) - set(fields)
+            if unknown:
+                raise ScenarioError(source, _join(path, sorted(unknown)[0]), f"unknown field; expected one of: {', '.join(fields)}")
+            return  # Drake checks the variants itself
+        if not isinstance(value, dict):
+            raise ScenarioError(source, path, f"expected a mapping with fields ({', '.join(fields)}), got {type(value).__name__} {value!r}")
+        for key, sub in value.items():
+            if key not in fields:
+                what = "unknown effect" if path == "effects" else "unknown field"
+                raise ScenarioError(source, _join(path, key), f"{what} {key!r}; expected one of: {', '.join(fields)}")
+            _check_raw(sub, fields[key], _join(path, key), source)
+        return
+    if origin is typing.Union:
+        args = [a for a in typing.get_args(schema) if a is not type(None)]
+        if value is None:
+            return
+        if len(args) == 1:
+            _check_raw(value, args[0], path, source)
+        return
+    if origin in (list, typing.List):
+        if not isinstance(value, list):
+            raise ScenarioError(source, path, f"expected a list, got {value!r}")
+        (item,) = typing.get_args(schema)
+        for i, sub in enumerate(value):
+            _check_raw(sub, item, _join(path, i), source)
+        return
+    if schema is float:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if isinstance(value, str):
+            try:
+                float(value)
+                ok = True
+            except ValueError:
+                ok = False
+        if not ok:
+            raise ScenarioError(source, path, f"expected a number, got {value!r}")
+    elif schema is bool and not isinstance(value, bool):
+        raise ScenarioError(source, path, f"expected true or false, got {value!r}")
+    elif schema is int and (not isinstance(value, int) or isinstance(value, bool)):
+        raise ScenarioError(source, path, f"expected an integer, got {value!r}")
+    elif schema is str and not isinstance(value, str):
+        raise ScenarioError(source, path, f"expected a string, got {value!r}")
+
+
+def parse_override(text: str):
+    """'a.b[2].c=value' -> (['a', 'b', 2, 'c'], parsed YAML value). ValueError if malformed."""
+    if "=" not in text:
+        raise ValueError(f"override {text!r} is not of the form key=value")
+    key, raw = text.split("=", 1)
+    parts: list = []
+    for piece in key.strip().split("."):
+        name, *indices = piece.replace("]", "").split("[")
+        if not name:
+            raise ValueError(f"override key {key!r} has an empty part")
+        parts.append(name)
+        parts.extend(int(i) for i in indices)
+    return parts, yaml.load(raw, Loader=_Loader)
+
+
+def _apply_override(data: dict, parts: list, value, source) -> None:
+    node = data
+    for depth, part in enumerate(parts):
+        field = ".".join(str(p) for p in parts[: depth + 1])
+        if isinstance(part, int):
+            if not isinstance(node, list) or not -len(node) <= part < len(node):
+                raise ScenarioError(source, field, "--set: list index out of range")
+        elif not isinstance(node, dict):
+            raise ScenarioError(source, field, "--set: the parent is not a mapping")
+        if depth == len(parts) - 1:
+            if value is None and len(parts) == 2 and parts[0] == "effects":
+                node.pop(part, None)  # --set effects.<name>=null removes a declared effect
+            else:
+                node[part] = value
+        else:
+            if isinstance(part, str) and node.get(part) is None:
+                node[part] = {}
+            node = node[part]
+
+
+def load_scenario(path: str | Path | None = None, *, text: str | None = None, overrides: typing.Sequence[str] = ()) -> Scenario:
+    """Loads, overrides and validates a scene.
+
+    path: a scene file, or a shipped scene name (see `shipped_scenes`);
+    text: YAML text instead of a file; overrides: ['key.path=value', ...].
+    Raises ScenarioError naming the file and field on any problem.
+    """
+    if text is None:
+        if path is None:
+            raise ValueError("give a path or text")
+        path = resolve_scene_path(path)
+        try:
+            text = Path(path).read_text()
+        except OSError as e:
+            raise ScenarioError(path, "", f"cannot read the scene file ({e.strerror})") from None
+    source = str(path) if path is not None else "<string>"
+    try:
+        data = yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as e:
+        raise ScenarioError(source, "", f"malformed YAML: {e}") from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ScenarioError(source, "", f"expected a mapping of scene fields at the top level, got {type(data).__name__}")
+    for override in overrides:
+        try:
+            parts, value = parse_override(override)
+        except (ValueError, yaml.YAMLError) as e:
+            raise ScenarioError(source, "--set", str(e)) from None
+        _apply_override(data, parts, value, source)
+    for key in ("contact_model", "discrete_contact_approximation"):
+        if key in (data.get("plant") or {}):
+            raise ScenarioError(source, f"plant.{key}", "set the contact model and approximation in effects.contact (model, approximation) instead")
+    _check_raw(data, Scenario, "", source)
+    if "effects" in data and data["effects"] is not None:
+        data["effects"] = {k: (v if v is not None else {}) for k, v in data["effects"].items()}
+    clean = yaml.dump(data, Dumper=_Dumper, sort_keys=False)
+    defaults = Scenario()
+    if "effects" in data:  # declared effects replace the default set entirely
+        defaults.effects = Effects()
+    if "containers" in data:
+        defaults.containers = []
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=clean, defaults=defaults)
+    except Exception as e:  # Drake's loader: RuntimeError/ValueError with a bare message
+        raise ScenarioError(source, "", f"does not match the scene schema: {e}") from None
+    validate_scenario(scenario, source)
+    return scenario
+
+
+def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None:
+    """Physical and semantic checks that need no diagram (overlaps are checked by the builder)."""
+    if not (scenario.duration > 0 and math.isfinite(scenario.duration)):
+        raise ScenarioError(source, "duration", f"expected a positive number of seconds, got {scenario.duration}")
+    if not scenario.plant.time_step > 0:
+        raise ScenarioError(source, "plant.time_step", f"expected a positive discrete time step [s] (continuous plants are not supported), got {scenario.plant.time_step}")
+    if not scenario.containers:
+        raise ScenarioError(source, "containers", "expected at least one container")
+    seen: set[str] = set()
+    for i, c in enumerate(scenario.containers):
+        where = f"containers[{i}]"
+        if c.type not in CONTAINER_TYPES:
+            raise ScenarioError(source, f"{where}.type", f"unknown container type {c.type!r}; expected one of: {', '.join(CONTAINER_TYPES)}")
+        if not c.name or not c.name.replace("_", "").isalnum():
+            raise ScenarioError(source, f"{where}.name", f"expected a non-empty name of letters, digits and '_', got {c.name!r}")
+        if c.name in seen or c.name == "quay_ground":
+            raise ScenarioError(source, f"{where}.name", f"duplicate or reserved name {c.name!r}; names must be unique")
+        seen.add(c.name)
+        mass = c.total_mass()
+        if not (math.isfinite(mass) and mass > 0):
+            raise ScenarioError(source, f"{where}.mass", f"expected a positive mass [kg], got {mass}")
+        if len(c.com_offset) != 3 or not np.all(np.isfinite(c.com_offset)):
+            raise ScenarioError(source, f"{where}.com_offset", f"expected 3 finite numbers [m], got {c.com_offset}")
+        half = CONTAINER_TYPES[c.type].half_size
+        if np.any(np.abs(c.com_offset) >= half):
+            raise ScenarioError(source, f"{where}.com_offset", f"centre of mass {c.com_offset} lies outside the {c.type} box (half extents {half.tolist()} m)")
+        if len(c.V_WC) != 6 or not np.all(np.isfinite(c.V_WC)):
+            raise ScenarioError(source, f"{where}.V_WC", f"expected 6 finite numbers [wx, wy, wz, vx, vy, vz], got {c.V_WC}")
+        try:
+            X = c.pose()
+        except Exception as e:
+            raise ScenarioError(source, f"{where}.X_WC", f"expected a fixed (deterministic) pose: {e}") from None
+        if not np.all(np.isfinite(X.translation())):
+            raise ScenarioError(source, f"{where}.X_WC", "expected a finite translation")
+    effects = {name: registry()[name](getattr(scenario.effects, name), scenario, source) for name in scenario.declared_effects()}
+    for effect in effects.values():
+        effect.check(effects)
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """The fully resolved scenario as YAML (every default written out)."""
+    return yaml_dump_typed(scenario)
+
+
+def shipped_scenes() -> dict[str, Path]:
+    """Shipped scene name -> file, from testbed/scenes/."""
+    return {p.stem: p for p in sorted(SCENES_DIR.glob("*.yaml"))}
+
+
+def resolve_scene_path(path: str | Path) -> Path:
+    """A file path, or the name of a shipped scene ('five_stack')."""
+    p = Path(path)
+    if p.exists() or p.suffix in (".yaml", ".yml"):
+        return p
+    return shipped_scenes().get(str(path), p)

@@ -1,0 +1,116 @@
+"""Runs a built scene and returns its records; writes a run directory on request."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+from testbed.builder import BuiltScene, build_scene
+from testbed.errors import SimulationError
+from testbed.records import atomic_directory, save_table, write_json
+from testbed.scenario import Scenario, dump_scenario
+
+
+@dataclasses.dataclass
+class RunResult:
+    """What a run produced: tables (name -> columns), a summary, the final plant state."""
+
+    scenario: Scenario
+    tables: dict[str, dict[str, np.ndarray]]
+    summary: dict
+    final_positions: np.ndarray  # (nq,) plant generalized positions at the end
+    body_names: list[str]
+    out_dir: Path | None = None
+
+
+def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool = False) -> RunResult:
+    """Simulates `scene` for `duration` [s] (default: the scenario's) and collects records."""
+    scenario = scene.scenario
+    duration = scenario.duration if duration is None else duration
+    context = scene.create_context()
+    simulator = Simulator(scene.diagram, context)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    simulator.Initialize()
+    h = scenario.plant.time_step
+    chunks = max(1, min(200, int(round(duration / h))))
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
+                   bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
+    start = time.perf_counter()
+    t0 = context.get_time()
+    for k in range(1, chunks + 1):
+        target = t0 + duration * k / chunks
+        try:
+            simulator.AdvanceTo(target)
+        except RuntimeError as e:
+            if bar is not None:
+                bar.close()
+            first_line = str(e).strip().splitlines()[0]
+            raise SimulationError(
+                f"scene '{scenario.name}': the simulation failed at t = {context.get_time():.4f} s: {first_line}"
+            ) from e
+        if bar is not None:
+            bar.n = round(target - t0, 9)
+            bar.refresh()
+    wall = time.perf_counter() - start
+    if bar is not None:
+        bar.close()
+    tables: dict[str, dict] = {}
+    for effect in scene.effects.values():
+        effect.collect(tables)
+    steps = int(round(duration / h))
+    summary = {
+        "scene": scenario.name,
+        "effects": list(scene.effects),
+        "contact_model": scene.effects["contact"].config.model if "contact" in scene.effects else None,
+        "approximation": scene.effects["contact"].config.approximation if "contact" in scene.effects else None,
+        "time_step_s": h,
+        "duration_s": duration,
+        "steps": steps,
+        "wall_time_s": wall,
+        "real_time_factor": duration / wall if wall > 0 else float("inf"),
+        "ms_per_sim_second": 1e3 * wall / duration,
+        "finite_state": bool(np.all(np.isfinite(context.get_continuous_state_vector().CopyToVector()))
+                             and np.all(np.isfinite(scene.plant.GetPositions(scene.plant.GetMyContextFromRoot(context))))),
+    }
+    for effect in scene.effects.values():
+        summary.update(effect.summarize(tables))
+    plant_context = scene.plant.GetMyContextFromRoot(context)
+    return RunResult(
+        scenario=scenario, tables=tables, summary=summary,
+        final_positions=scene.plant.GetPositions(plant_context).copy(), body_names=scene.body_names,
+    )
+
+
+def final_poses(scene: BuiltScene, result: RunResult) -> dict:
+    """Container name -> final RigidTransform X_WC."""
+    context = scene.plant.CreateDefaultContext()
+    scene.plant.SetPositions(context, result.final_positions)
+    return {n: scene.plant.EvalBodyPoseInWorld(context, scene.bodies[n]) for n in scene.bodies}
+
+
+def write_run(result: RunResult, out_dir: str | Path) -> Path:
+    """Writes scenario.yaml, one .npz per table and summary.json; atomic (see records.py)."""
+    with atomic_directory(out_dir) as tmp:
+        (tmp / "scenario.yaml").write_text(dump_scenario(result.scenario))
+        for name, table in result.tables.items():
+            save_table(tmp / f"{name}.npz", table)
+        write_json(tmp / "summary.json", {**result.summary, "body_names": result.body_names})
+    result.out_dir = Path(out_dir)
+    return result.out_dir
+
+
+def run_scenario(scenario: Scenario, *, out_dir=None, duration=None, progress=False, source="<scenario>") -> RunResult:
+    """build -> simulate -> (write). The one-call entry point used by the CLI and studies."""
+    scene = build_scene(scenario, source)
+    result = simulate(scene, duration=duration, progress=progress)
+    if out_dir is not None:
+        write_run(result, out_dir)
+    return result
