@@ -17,9 +17,9 @@ A scene file is YAML in Drake's conventions (pydrake.common.yaml.yaml_load_typed
       contact: {model: hydroelastic, approximation: sap}
       friction: {}
 
-The contact model and discrete approximation are set only in `effects.contact`;
-giving `plant.contact_model` or `plant.discrete_contact_approximation` is an
-error, so there is one source of truth. Everything a run used is written back with
+The contact model and discrete approximation are set in `effects.contact`;
+`plant.contact_model` and `plant.discrete_contact_approximation` are derived from
+it (a file may repeat them, as dumped runs do, but they must agree). Everything a run used is written back with
 `dump_scenario` next to its output.
 """
 
@@ -82,7 +82,10 @@ def _default_plant() -> MultibodyPlantConfig:
     # Drake's defaults except the time step (1 ms, the crane simulators' rate).
     # Sampled output ports stay on: the contact logger pairs each sampled result
     # with the state it came from, and unsampled ports would solve contact twice.
-    return MultibodyPlantConfig(time_step=1e-3)
+    # contact_model / discrete_contact_approximation mirror the default `contact` effect.
+    return MultibodyPlantConfig(
+        time_step=1e-3, contact_model="hydroelastic_with_fallback", discrete_contact_approximation="sap"
+    )
 
 
 def _default_effects():
@@ -257,11 +260,61 @@ def _apply_override(data: dict, parts: list, value, source) -> None:
             node = node[part]
 
 
+def _parse_yaml(text: str, source) -> dict:
+    try:
+        data = yaml.load(text, Loader=_Loader)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        problem = " ".join(str(getattr(e, "problem", None) or e).split())
+        context = getattr(e, "context", None)
+        raise ScenarioError(source, "", f"malformed YAML{where}: {problem}" + (f" ({context})" if context else "")) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ScenarioError(source, "", f"expected a mapping of scene fields at the top level, got {type(data).__name__}")
+    return data
+
+
+_DERIVED_PLANT_FIELDS = {"contact_model": "model", "discrete_contact_approximation": "approximation"}
+
+
+def _typed_from_raw(data: dict, source) -> Scenario:
+    """Raw YAML data -> Scenario, with field-path errors; plant contact fields must agree
+    with effects.contact (they are derived from it)."""
+    _check_raw(data, Scenario, "", source)
+    effects = data.get("effects")
+    if effects is not None:
+        data["effects"] = {k: (v if v is not None else {}) for k, v in effects.items()}
+    contact = (data.get("effects") or {}).get("contact") or {}
+    for plant_key, contact_key in _DERIVED_PLANT_FIELDS.items():
+        given = (data.get("plant") or {}).get(plant_key)
+        default = getattr(registry()["contact"].Config(), contact_key)
+        if given is not None and given != contact.get(contact_key, default):
+            raise ScenarioError(source, f"plant.{plant_key}", f"is set from effects.contact.{contact_key}; set it there (got {given!r} here)")
+    clean = yaml.dump(data, Dumper=_Dumper, sort_keys=False)
+    defaults = Scenario()
+    if "effects" in data:  # declared effects replace the default set entirely
+        defaults.effects = Effects()
+    if "containers" in data:
+        defaults.containers = []
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=clean, defaults=defaults)
+    except Exception as e:  # Drake's loader: RuntimeError/ValueError with a bare message
+        raise ScenarioError(source, "", f"does not match the scene schema: {e}") from None
+    if scenario.effects.contact is not None:  # keep the dumped plant config truthful
+        scenario.plant.contact_model = scenario.effects.contact.model
+        scenario.plant.discrete_contact_approximation = scenario.effects.contact.approximation
+    return scenario
+
+
 def load_scenario(path: str | Path | None = None, *, text: str | None = None, overrides: typing.Sequence[str] = ()) -> Scenario:
     """Loads, overrides and validates a scene.
 
     path: a scene file, or a shipped scene name (see `shipped_scenes`);
-    text: YAML text instead of a file; overrides: ['key.path=value', ...].
+    text: YAML text instead of a file; overrides: ['key.path=value', ...] applied to
+    the fully resolved scene (so `containers[0].mass=25000` works on a scene that
+    relies on defaults, and `effects.wind=null` removes a declared effect).
     Raises ScenarioError naming the file and field on any problem.
     """
     if text is None:
@@ -273,36 +326,18 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
         except OSError as e:
             raise ScenarioError(path, "", f"cannot read the scene file ({e.strerror})") from None
     source = str(path) if path is not None else "<string>"
-    try:
-        data = yaml.load(text, Loader=_Loader)
-    except yaml.YAMLError as e:
-        raise ScenarioError(source, "", f"malformed YAML: {e}") from None
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise ScenarioError(source, "", f"expected a mapping of scene fields at the top level, got {type(data).__name__}")
-    for override in overrides:
-        try:
-            parts, value = parse_override(override)
-        except (ValueError, yaml.YAMLError) as e:
-            raise ScenarioError(source, "--set", str(e)) from None
-        _apply_override(data, parts, value, source)
-    for key in ("contact_model", "discrete_contact_approximation"):
-        if key in (data.get("plant") or {}):
-            raise ScenarioError(source, f"plant.{key}", "set the contact model and approximation in effects.contact (model, approximation) instead")
-    _check_raw(data, Scenario, "", source)
-    if "effects" in data and data["effects"] is not None:
-        data["effects"] = {k: (v if v is not None else {}) for k, v in data["effects"].items()}
-    clean = yaml.dump(data, Dumper=_Dumper, sort_keys=False)
-    defaults = Scenario()
-    if "effects" in data:  # declared effects replace the default set entirely
-        defaults.effects = Effects()
-    if "containers" in data:
-        defaults.containers = []
-    try:
-        scenario = yaml_load_typed(schema=Scenario, data=clean, defaults=defaults)
-    except Exception as e:  # Drake's loader: RuntimeError/ValueError with a bare message
-        raise ScenarioError(source, "", f"does not match the scene schema: {e}") from None
+    scenario = _typed_from_raw(_parse_yaml(text, source), source)
+    if overrides:
+        data = _parse_yaml(yaml_dump_typed(scenario), source)
+        for key in _DERIVED_PLANT_FIELDS:
+            data.get("plant", {}).pop(key, None)
+        for override in overrides:
+            try:
+                parts, value = parse_override(override)
+            except (ValueError, yaml.YAMLError) as e:
+                raise ScenarioError(source, "--set", str(e)) from None
+            _apply_override(data, parts, value, source)
+        scenario = _typed_from_raw(data, f"{source} (with --set overrides)")
     validate_scenario(scenario, source)
     return scenario
 

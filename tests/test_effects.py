@@ -1,0 +1,88 @@
+"""Only declared effects are built; each effect adds exactly its own systems."""
+
+import subprocess
+import sys
+
+import pytest
+
+from testbed import build_scene, load_scenario
+from testbed.effects import registry
+
+BASE = {"plant", "scene_graph"}
+OWN_SYSTEMS = {  # effect -> names of the systems it adds
+    "contact": set(),
+    "friction": set(),
+    "contact_log": {"contact_logger"},
+    "shadow_contact": {"shadow_contact_probe"},
+    "wind": {"wind_load"},
+}
+
+
+def _systems(*overrides):
+    scene = build_scene(load_scenario("defaults", overrides=list(overrides)))
+    return scene, set(scene.system_names())
+
+
+def test_contact_only_scene_has_no_extra_systems():
+    scene, names = _systems("effects.friction=null")
+    assert list(scene.effects) == ["contact"]
+    assert names == BASE
+
+
+@pytest.mark.parametrize("effect", sorted(OWN_SYSTEMS))
+def test_each_effect_adds_exactly_its_systems(effect):
+    _, names = _systems(f"effects.{effect}={{}}")
+    assert names - BASE == OWN_SYSTEMS[effect]
+
+
+def test_every_registered_effect_is_covered_here():
+    assert set(registry()) <= set(OWN_SYSTEMS) | {"learned_contact", "meshcat", "crane"}
+
+
+def _proximity_geometries(scene):
+    inspector = scene.scene_graph.model_inspector()
+    from pydrake.geometry import Role
+
+    return [g for g in inspector.GetAllGeometryIds() if inspector.GetProximityProperties(g) is not None], inspector
+
+
+def test_without_contact_there_is_no_collision_geometry():
+    scene, _ = _systems("effects={}")
+    geometries, _ = _proximity_geometries(scene)
+    assert geometries == []
+
+
+@pytest.mark.parametrize("declared, expected_mu", [(True, 0.4), (False, 0.0)])
+def test_friction_effect_switches_friction(declared, expected_mu):
+    scene, _ = _systems() if declared else _systems("effects.friction=null")
+    geometries, inspector = _proximity_geometries(scene)
+    assert geometries
+    for g in geometries:
+        friction = inspector.GetProximityProperties(g).GetProperty("material", "coulomb_friction")
+        assert friction.dynamic_friction() == pytest.approx(expected_mu)
+
+
+def test_friction_override_value():
+    scene, _ = _systems("effects.friction.mu=0.25")
+    geometries, inspector = _proximity_geometries(scene)
+    for g in geometries:
+        assert inspector.GetProximityProperties(g).GetProperty("material", "coulomb_friction").static_friction() == pytest.approx(0.25)
+
+
+def test_contact_only_scene_does_not_import_torch():
+    code = (
+        "import sys, testbed\n"
+        "from testbed import load_scenario, run_scenario\n"
+        "run_scenario(load_scenario('defaults', overrides=['effects.friction=null']), duration=0.005)\n"
+        "assert 'torch' not in sys.modules, 'torch was imported'\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().endswith("ok")
+
+
+def test_import_testbed_starts_nothing_heavy():
+    code = "import sys, threading, testbed\nassert 'torch' not in sys.modules\nassert threading.active_count() == 1\nprint('ok')"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
