@@ -40,6 +40,7 @@ class SceneAssembly:
     body_names: list[str]  # plant-order names: ground (if any) first, then containers
     bodies: dict  # name -> RigidBody
     plan: ModelPlan
+    effects: dict = dataclasses.field(default_factory=dict)  # name -> Effect, those added so far
     force_ports: list = dataclasses.field(default_factory=list)  # ExternallyAppliedSpatialForce outputs
 
     def add_spatial_forces(self, output_port) -> None:
@@ -122,8 +123,9 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
         scenario=scenario, builder=builder, plant=plant, scene_graph=scene_graph,
         body_names=list(bodies), bodies=bodies, plan=plan,
     )
-    for effect in effects.values():
+    for name, effect in effects.items():
         effect.systems = list(effect.add_systems(assembly) or [])
+        assembly.effects[name] = effect
     _connect_forces(assembly)
     diagram = builder.Build()
     diagram.set_name(f"scene:{scenario.name}")

@@ -3,6 +3,9 @@
   testbed scenes                         list the shipped scenes
   testbed run SCENE [--out DIR] [--duration S] [--set key=value ...]
   testbed run-all [--out DIR] [--duration S] [--models hydroelastic point]
+  testbed validate [--suite default|full] [--workers N] [--executor local|ray]
+                   [--address A] [--resume RUN_DIR]       (the main job)
+  testbed study sim|query [--out DIR] [--quick]
 
 Errors in the user's input (scene files, overrides, options) print one line naming
 the file and field and exit with status 2; a simulation that fails (solver
@@ -82,6 +85,43 @@ def cmd_run_all(args) -> int:
     return 0
 
 
+def cmd_validate(args) -> int:
+    from testbed.validate import validate
+
+    run_dir, metrics = validate(suite_name=args.suite, workers=args.workers, executor=args.executor,
+                                address=args.address, resume=args.resume, progress=not args.quiet)
+    print((run_dir / "summary.md").read_text())
+    print(f"report: {run_dir / 'index.html'}")
+    return 0 if metrics["passed"] else 3
+
+
+def cmd_study(args) -> int:
+    out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{_timestamp()}"
+    out.mkdir(parents=True, exist_ok=True)
+    if args.which == "query":
+        from testbed.studies.query import run_query_study
+
+        run_query_study(out, quick=args.quick, progress=not args.quiet)
+        print((out / "query.md").read_text())
+    else:
+        import json
+
+        from testbed.studies.sim import effect_costs, sweep
+
+        steps = [1e-3, 3e-3, 1e-2] if args.quick else [2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2]
+        rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=["sap", "tamsi", "similar", "lagged"],
+                     time_steps=steps, reference_step=1e-4, duration=0.5 if args.quick else 1.0, progress=not args.quiet)
+        costs = effect_costs(args.scene, duration=0.3 if args.quick else 1.0)
+        (out / "sim.json").write_text(json.dumps({"sweep": rows, "effect_costs": costs}, indent=1))
+        for r in rows:
+            print(f"{r['model']:13s} {r['approximation']:7s} h={r['time_step']:<7g} {r['ms_per_sim_second']:8.0f} ms/sim s  "
+                  f"deviation {r['deviation_m'] * 1e3:9.3f} mm  {r['status']}")
+        for r in costs:
+            print(f"effect {r['effect']:16s} " + (f"{r['ratio']:.2f}x" if r.get("status") == "ok" else str(r.get("status"))))
+    print(f"study output: {out}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="testbed", description="Container contact testbed (Drake).")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -101,6 +141,21 @@ def build_parser() -> argparse.ArgumentParser:
                          help="contact models to run each scene with (default: hydroelastic point)")
     run_all.add_argument("--quiet", action="store_true", help="no progress bars")
     run_all.set_defaults(func=cmd_run_all)
+    val = sub.add_parser("validate", help="run a validation suite and write reports/<time>/ (exit 3 if a gate fails)")
+    val.add_argument("--suite", default="default", help="default (about 10 min on 2 cores), full, or smoke (seconds)")
+    val.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    val.add_argument("--executor", default="local", help="local (process pool) or ray")
+    val.add_argument("--address", help="Ray cluster address (with --executor ray); default: start a local Ray")
+    val.add_argument("--resume", metavar="RUN_DIR", help="finish an interrupted run: compute only its missing cases")
+    val.add_argument("--quiet", action="store_true", help="no progress bar")
+    val.set_defaults(func=cmd_validate)
+    study = sub.add_parser("study", help="one study on its own: sim (time step x model x approximation) or query")
+    study.add_argument("which", choices=["sim", "query"])
+    study.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
+    study.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
+    study.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
+    study.add_argument("--quiet", action="store_true", help="no progress bars")
+    study.set_defaults(func=cmd_study)
     return parser
 
 

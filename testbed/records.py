@@ -40,6 +40,33 @@ class TableBuilder:
         chunk["time"] = np.full(n, time)
         self._chunks.append(chunk)
 
+    def latest(self) -> tuple[int, float, dict[str, np.ndarray]] | None:
+        """(step, time, columns) of the most recent non-empty append, or None."""
+        if not self._chunks:
+            return None
+        chunk = self._chunks[-1]
+        return int(chunk["step"][0]), float(chunk["time"][0]), chunk
+
+    def chunks_for_step(self, step: int) -> list[dict[str, np.ndarray]]:
+        """The appended column dicts of `step` (searching from the newest)."""
+        out = []
+        for chunk in reversed(self._chunks):
+            s = int(chunk["step"][0])
+            if s == step:
+                out.append(chunk)
+            elif s < step:
+                break
+        return out
+
+    def chunks_after_step(self, step: int) -> list[dict[str, np.ndarray]]:
+        """The appended column dicts with a step greater than `step`, oldest first."""
+        out = []
+        for chunk in reversed(self._chunks):
+            if int(chunk["step"][0]) <= step:
+                break
+            out.append(chunk)
+        return out[::-1]
+
     def build(self, empty: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         if not self._chunks:
             out = dict(empty)

@@ -1,0 +1,124 @@
+"""Drake's answers for one container pair: point contact and hydroelastic (static CoP).
+
+A two-body MultibodyPlant (time_step 0, no simulation) holds container A at the world
+origin and B posed per query, so world quantities are A-frame quantities. Queries go
+through the QueryObject from the plant's geometry-query input port (not a sampled
+output port), as learned_contact/labels.py does.
+
+Modes
+- "point": QueryObject.ComputePointPairPenetration; box-box goes to FCL's port of ODE's
+  dBoxBox, which keeps the deepest of up to 4 points. Point = midpoint of the witness
+  points p_WCa, p_WCb; normal = -nhat_BA_W when Drake's A is our A.
+- "hydro_cc": both boxes compliant_hydroelastic (the SDF models as shipped: E = 1e8 Pa);
+  QueryObject.ComputeContactSurfaces(kPolygon) and the centre of pressure and
+  pressure-weighted normal of testbed.contact_geometry.static_pressure. This is the
+  study's reference model.
+- "hydro_cr": B made rigid_hydroelastic in a second plant (compliant A, rigid B).
+Point and normal: (3,) in A's frame [m], normal unit from A into B.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+MODES = ("point", "hydro_cc", "hydro_cr")
+
+
+class DrakeAnswer(NamedTuple):
+    """point (3,) [m], unit normal (3,) A->B in A's frame (NaN without contact);
+    n_faces: contact-surface polygons (hydroelastic) or point pairs (point)."""
+
+    point: np.ndarray
+    normal: np.ndarray
+    n_faces: int
+
+
+def _rigid(sdf: str) -> str:
+    """The container SDF text with B made rigid hydroelastic (modulus dropped)."""
+    import re
+
+    sdf = sdf.replace("<drake:compliant_hydroelastic />", "<drake:rigid_hydroelastic />")
+    sdf = sdf.replace("<drake:compliant_hydroelastic/>", "<drake:rigid_hydroelastic/>")
+    return re.sub(r"<drake:hydroelastic_modulus>[^<]*</drake:hydroelastic_modulus>", "", sdf)
+
+
+class DrakeBoxPair:
+    """A and B of ISO types type_a, type_b (e.g. "1CC") in one plant; rigid_b makes B
+    rigid_hydroelastic (for "hydro_cr")."""
+
+    def __init__(self, type_a: str, type_b: str, *, rigid_b: bool = False):
+        from pydrake.math import RigidTransform
+        from pydrake.multibody.parsing import Parser
+        from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel
+        from pydrake.systems.framework import DiagramBuilder
+
+        from testbed.containers import container_type
+        from testbed.model_loading import container_sdf
+
+        builder = DiagramBuilder()
+        plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
+        plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
+        parser = Parser(plant)
+        models = []
+        for name, code in (("A", type_a), ("B", type_b)):
+            ctype = container_type(code)
+            sdf = container_sdf(ctype, name=name, mass=ctype.tare_mass)
+            if name == "B" and rigid_b:
+                sdf = _rigid(sdf)
+            models.append(parser.AddModelsFromString(sdf, "sdf")[0])
+        plant.Finalize()
+        self.diagram = builder.Build()
+        self._root = self.diagram.CreateDefaultContext()
+        self.plant = plant
+        self.context = plant.GetMyMutableContextFromRoot(self._root)
+        bodies = [plant.GetBodyByName("body", m) for m in models]
+        plant.SetFreeBodyPose(self.context, bodies[0], RigidTransform())
+        self.body_b = bodies[1]
+        self.gid_a = plant.GetCollisionGeometriesForBody(bodies[0])[0]
+        self.gid_b = plant.GetCollisionGeometriesForBody(bodies[1])[0]
+        self.port = plant.get_geometry_query_input_port()
+        self._RigidTransform = RigidTransform
+        from pydrake.geometry import HydroelasticContactRepresentation
+        from pydrake.math import RotationMatrix
+
+        self._RotationMatrix = RotationMatrix
+        self._poly = HydroelasticContactRepresentation.kPolygon
+
+    def set_pose(self, p_AB, R_AB):
+        """Places B at p_AB (3,) [m], R_AB (3, 3) in A; returns the QueryObject."""
+        X = self._RigidTransform(self._RotationMatrix(np.asarray(R_AB, dtype=float)), np.asarray(p_AB, dtype=float))
+        self.plant.SetFreeBodyPose(self.context, self.body_b, X)
+        return self.port.Eval(self.context)
+
+    def kernel(self, query, mode: str):
+        """Drake's query call alone (no Python post-processing)."""
+        if mode == "point":
+            return query.ComputePointPairPenetration()
+        return query.ComputeContactSurfaces(self._poly)
+
+    def answer(self, query, mode: str) -> DrakeAnswer:
+        """Runs the mode's query on a posed QueryObject and reduces it to one answer."""
+        nan3 = np.full(3, np.nan)
+        if mode == "point":
+            pairs = query.ComputePointPairPenetration()
+            if not pairs:
+                return DrakeAnswer(nan3, nan3, 0)
+            pp = pairs[0]
+            flip = -1.0 if pp.id_A == self.gid_a else 1.0  # nhat_BA_W: out of Drake's B into its A
+            return DrakeAnswer(0.5 * (pp.p_WCa + pp.p_WCb), flip * pp.nhat_BA_W, len(pairs))
+        from testbed.contact_geometry import static_pressure, surface_face_arrays
+
+        surfaces = query.ComputeContactSurfaces(self._poly)
+        if not surfaces:
+            return DrakeAnswer(nan3, nan3, 0)
+        surface = surfaces[0]
+        faces = surface_face_arrays(surface)
+        sp = static_pressure(faces)
+        flip = 1.0 if surface.id_M() == self.gid_b else -1.0  # face normals: out of N into M
+        return DrakeAnswer(sp.cop, flip * sp.normal, len(faces.area))
+
+    def query(self, p_AB, R_AB, mode: str) -> DrakeAnswer:
+        """Pose in, contact point and normal out."""
+        return self.answer(self.set_pose(p_AB, R_AB), mode)

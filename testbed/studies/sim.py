@@ -1,0 +1,175 @@
+"""Simulation-level study: what whole simulations cost against how accurate they are.
+
+In the manner of Erez, Tassa and Todorov (2015, "Simulation tools for model-based
+robotics"): for a scene, sweep the time step, the contact model and the discrete
+approximation; accuracy is the deviation of the trajectory from a fine-step
+reference of the same model and approximation, plus the maximum penetration and the
+energy drift; cost is wall time per simulated second. `effect_costs` measures what
+each effect costs: wall time with one effect switched on against the bare scene, the
+two runs made side by side in one process.
+
+Trajectories are sampled every `SAMPLE_PERIOD` by advancing the simulator to each
+sample time (no logging system is added, so the timing is the bare simulation's).
+"""
+
+import copy
+import time
+
+import numpy as np
+
+from testbed.builder import build_scene, geometry_body_index
+from testbed.effects import registry
+from testbed.errors import SimulationError
+from testbed.scenario import Scenario, load_scenario
+
+SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
+
+
+def configure(scenario: Scenario, *, model: str, approximation: str, time_step: float,
+              duration: float, keep_effects=("contact", "friction", "wind")) -> Scenario:
+    """A copy of `scenario` with the given contact settings and only `keep_effects`."""
+    s = copy.deepcopy(scenario)
+    s.duration = duration
+    s.plant.time_step = time_step
+    for name in registry():
+        if name not in keep_effects:
+            setattr(s.effects, name, None)
+    s.effects.contact.model = model
+    s.effects.contact.approximation = approximation
+    s.plant.contact_model = model
+    s.plant.discrete_contact_approximation = approximation
+    return s
+
+
+def sampled_run(scenario: Scenario) -> dict:
+    """Simulates, sampling positions, penetration and energy every SAMPLE_PERIOD.
+
+    Returns {'wall_s', 'ms_per_sim_second', 'times' (k,), 'p_WB' (k, m, 3) free-body
+    origins [m], 'min_phi' (k,) [m] smallest signed distance among near pairs,
+    'energy' (k,) [J], 'status': 'ok' | 'diverged' | 'non-finite', 'failure': str}.
+    Sampling work is excluded from the wall time.
+    """
+    from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+    scene = build_scene(scenario)
+    plant = scene.plant
+    context = scene.create_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    simulator = Simulator(scene.diagram, context)
+    ApplySimulatorConfig(scenario.simulator, simulator)
+    simulator.Initialize()
+    free = [scene.bodies[n] for n in scene.free_names]
+    times = np.arange(0.0, scenario.duration + 1e-12, SAMPLE_PERIOD)
+    samples = {"times": [], "p_WB": [], "min_phi": [], "energy": []}
+    wall, status, failure = 0.0, "ok", ""
+    for t in times:
+        start = time.perf_counter()
+        try:
+            simulator.AdvanceTo(t)
+        except RuntimeError as e:
+            status, failure = "diverged", str(e).strip().splitlines()[0]
+            break
+        wall += time.perf_counter() - start
+        q = plant.GetPositions(plant_context)
+        if not np.all(np.isfinite(q)):
+            status = "non-finite"
+            break
+        samples["times"].append(t)
+        samples["p_WB"].append([plant.EvalBodyPoseInWorld(plant_context, b).translation() for b in free])
+        query = plant.get_geometry_query_input_port().Eval(plant_context)
+        distances = [p.distance for p in query.ComputeSignedDistancePairwiseClosestPoints(1e-3)]
+        samples["min_phi"].append(min(distances) if distances else np.inf)
+        samples["energy"].append(plant.EvalKineticEnergy(plant_context) + plant.EvalPotentialEnergy(plant_context))
+    out = {k: np.asarray(v, dtype=float) for k, v in samples.items()}
+    simulated = out["times"][-1] if len(out["times"]) else 0.0
+    out.update(wall_s=wall, status=status, failure=failure,
+               ms_per_sim_second=1e3 * wall / simulated if simulated > 0 else float("nan"))
+    return out
+
+
+def deviation(run: dict, reference: dict) -> float:
+    """RMS over common samples and bodies of the position difference [m] (inf if diverged)."""
+    k = min(len(run["times"]), len(reference["times"]))
+    if run["status"] != "ok" or k == 0:
+        return float("inf")
+    diff = run["p_WB"][:k] - reference["p_WB"][:k]
+    return float(np.sqrt(np.mean(np.sum(diff**2, axis=-1))))
+
+
+def summarize_run(run: dict, reference: dict | None) -> dict:
+    """JSON-able figures of one sweep point."""
+    energy = run["energy"]
+    contact_energy = energy[0] if len(energy) else np.nan
+    return {
+        "status": run["status"], "failure": run["failure"],
+        "ms_per_sim_second": run["ms_per_sim_second"],
+        "deviation_m": deviation(run, reference) if reference is not None else 0.0,
+        "max_penetration_m": float(max(0.0, -np.min(run["min_phi"]))) if len(run["min_phi"]) else float("nan"),
+        "energy_gain_J": float(np.max(energy - contact_energy)) if len(energy) else float("nan"),
+        "energy_drift_J": float(energy[-1] - energy[0]) if len(energy) else float("nan"),
+    }
+
+
+def sweep(scene: str, *, models, approximations, time_steps, reference_step: float, duration: float,
+          progress: bool = False) -> list[dict]:
+    """Runs the grid; each row is one (model, approximation, time_step) with its figures."""
+    base = load_scenario(scene)
+    rows = []
+    combos = [(m, a) for m in models for a in approximations]
+    iterator = combos
+    if progress:
+        from tqdm import tqdm
+
+        iterator = tqdm(combos, desc=f"sim study {scene}", leave=False)
+    for model, approximation in iterator:
+        reference = sampled_run(configure(base, model=model, approximation=approximation,
+                                          time_step=reference_step, duration=duration))
+        for h in time_steps:
+            run = sampled_run(configure(base, model=model, approximation=approximation, time_step=h, duration=duration))
+            rows.append({"scene": scene, "model": model, "approximation": approximation, "time_step": h,
+                         "reference_step": reference_step, **summarize_run(run, reference)})
+    return rows
+
+
+def effect_costs(scene: str, *, effects=("contact_log", "shadow_contact", "learned_contact", "wind", "meshcat"),
+                 duration: float = 0.5, repeats: int = 2) -> list[dict]:
+    """Wall-time ratio (scene + one effect) / (bare scene), measured side by side.
+
+    "Bare" keeps only contact and friction. Effects that need others (learned_contact
+    needs contact_log) are measured with what they need, and the row says so. The
+    minimum over `repeats` alternating runs of each is used (least disturbed by noise).
+    """
+    base = load_scenario(scene)
+    bare = configure(base, model=base.effects.contact.model, approximation=base.effects.contact.approximation,
+                     time_step=base.plant.time_step, duration=duration, keep_effects=("contact", "friction"))
+    rows = []
+    for name in effects:
+        if name not in registry():
+            rows.append({"effect": name, "status": "not available"})
+            continue
+        cls = registry()[name]
+        variant = copy.deepcopy(bare)
+        needed = [n for n in cls.requires if getattr(variant.effects, n) is None]
+        for n in needed + [name]:
+            setattr(variant.effects, n, registry()[n].Config())
+        if name == "meshcat":
+            variant.effects.meshcat.port = 0  # any free port; never a fixed one in a study
+        times = {"bare": [], "effect": []}
+        try:
+            for _ in range(repeats):
+                for key, s in (("bare", bare), ("effect", variant)):
+                    times[key].append(_wall(s))
+        except Exception as e:  # an optional dependency missing, for example
+            rows.append({"effect": name, "status": f"failed: {str(e).splitlines()[0]}"})
+            continue
+        rows.append({"effect": name, "status": "ok", "with": needed, "bare_wall_s": min(times["bare"]),
+                     "effect_wall_s": min(times["effect"]), "ratio": min(times["effect"]) / min(times["bare"])})
+    return rows
+
+
+def _wall(scenario: Scenario) -> float:
+    from testbed.simulate import simulate
+
+    scene = build_scene(scenario)
+    result = simulate(scene)
+    return result.summary["wall_time_s"]

@@ -1,0 +1,110 @@
+"""`testbed validate`: report files and schema, resume after a kill, Ray executor, exit status."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from testbed import cli
+from testbed.validate import TIMING_KEYS, Case, suite, validate
+
+SCHEMA = Path(__file__).resolve().parent.parent / "testbed" / "report_schema.json"
+
+
+def _deterministic(metrics: dict) -> dict:
+    """metrics without the fields that measure time (they differ between any two runs)."""
+
+    def strip(value):
+        if isinstance(value, dict):
+            return {k: strip(v) for k, v in value.items() if k not in TIMING_KEYS and k != "created"}
+        if isinstance(value, list):
+            return [strip(v) for v in value]
+        return value
+
+    return strip(metrics)
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory):
+    run_dir, metrics = validate(suite_name="smoke", workers=1, out_root=tmp_path_factory.mktemp("reports"), progress=False)
+    return run_dir, metrics
+
+
+def test_report_files_and_schema(smoke_run):
+    import jsonschema
+
+    run_dir, metrics = smoke_run
+    assert {"suite.json", "metrics.json", "summary.md", "index.html", "cases"} <= {p.name for p in run_dir.iterdir()}
+    on_disk = json.loads((run_dir / "metrics.json").read_text())
+    jsonschema.validate(on_disk, json.loads(SCHEMA.read_text()))
+    assert set(on_disk["cases"]) == {c.id for c in suite("smoke")}
+    assert all(case["status"] == "ok" for case in on_disk["cases"].values()), on_disk["cases"]
+    html = (run_dir / "index.html").read_text()
+    assert html.startswith("<!DOCTYPE html>") and "data:image/png;base64," in html and "<script src" not in html
+    assert "gates pass" in (run_dir / "summary.md").read_text()
+
+
+def test_schema_rejects_a_broken_metrics_file(smoke_run):
+    import jsonschema
+
+    run_dir, _ = smoke_run
+    broken = json.loads((run_dir / "metrics.json").read_text())
+    del broken["gates"][0]["threshold"]
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate(broken, json.loads(SCHEMA.read_text()))
+
+
+def test_killed_run_resumes_to_the_same_report(smoke_run, tmp_path):
+    _, reference = smoke_run
+    out_root = tmp_path / "reports"
+    command = [sys.executable, "-c",
+               "import sys; from testbed.validate import validate; "
+               f"validate(suite_name='smoke', workers=1, out_root={str(out_root)!r}, progress=False)"]
+    process = subprocess.Popen(command, start_new_session=True)
+    deadline = time.time() + 240
+    cases_dir = None
+    while time.time() < deadline:
+        found = list(out_root.glob("*/cases/*.json")) if out_root.exists() else []
+        if found:
+            cases_dir = found[0].parent
+            break
+        time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    assert cases_dir is not None, "no case finished within 240 s"
+    done_before = {p.name for p in cases_dir.glob("*.json")}
+    assert 0 < len(done_before) < len(suite("smoke")), "the kill must land mid-way"
+    run_dir, resumed = validate(resume=cases_dir.parent, workers=1, progress=False)
+    assert {p.name for p in cases_dir.glob("*.json")} >= done_before
+    assert _deterministic(resumed) == _deterministic(reference)
+
+
+def test_ray_executor_gives_the_same_results(smoke_run, tmp_path):
+    pytest.importorskip("ray", reason="Ray is in the test extra: pip install -e '.[test]'")
+    _, reference = smoke_run
+    _, via_ray = validate(suite_name="smoke", executor="ray", out_root=tmp_path, progress=False)
+    assert _deterministic(via_ray) == _deterministic(reference)
+
+
+def test_failed_gate_gives_a_nonzero_exit(tmp_path, monkeypatch, capsys):
+    from testbed import validate as validate_module
+
+    bad = [Case("scene-missing", "scene", {"scene": "no_such_scene", "model": "point", "duration": 0.01})]
+    monkeypatch.setattr(validate_module, "suite", lambda name: bad)
+    monkeypatch.chdir(tmp_path)
+    code = cli.main(["validate", "--workers", "1", "--quiet"])
+    out = capsys.readouterr().out
+    assert code == 3
+    assert "FAILED scene-missing: ran" in out
+
+
+def test_bad_options_exit_2(tmp_path, capsys):
+    assert cli.main(["validate", "--suite", "nope", "--quiet"]) == 2
+    assert "expected one of: default, full, smoke" in capsys.readouterr().err
+    assert cli.main(["validate", "--resume", str(tmp_path), "--quiet"]) == 2
+    assert "no suite.json" in capsys.readouterr().err
