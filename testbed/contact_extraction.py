@@ -87,8 +87,8 @@ def from_contact_results(results, distances: dict, owner: dict) -> dict[str, np.
         f_M, tau_M = F.translational(), F.rotational()
         centroid = surface.centroid()
         cop = point_on_line_of_action(centroid, f_M, tau_M)
-        static = static_pressure(surface_face_arrays(surface))
-        rows.append((a, b, HYDRO, centroid, cop, sign * static.normal, sign * f_M,
+        normal = static_pressure(surface_face_arrays(surface)).normal
+        rows.append((a, b, HYDRO, centroid, cop, sign * normal, sign * f_M,
                      surface.total_area(), _signed_distance(distances, id_M, id_N)))
     for i in range(results.num_point_pair_contacts()):
         info = results.point_pair_contact_info(i)

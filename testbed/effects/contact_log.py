@@ -21,7 +21,7 @@ from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
 from testbed import contact_extraction
-from testbed.contact_geometry import cross
+from testbed.contact_geometry import cross, rotation_from_quaternion
 from testbed.effects import register
 from testbed.effects.base import Effect
 from testbed.records import TableBuilder
@@ -89,17 +89,18 @@ class ContactLogger(LeafSystem):
         p, q = _pose_columns([poses[i] for i in self._plant_bodies])  # (nb, 3), (nb, 4)
         V = np.array([np.concatenate([velocities[i].rotational(), velocities[i].translational()])
                       for i in self._free_body_index]).reshape(-1, 6)
-        R = np.array([poses[self._plant_bodies[i]].rotation().matrix() for i in self._free]).reshape(-1, 3, 3)
+        R_all = rotation_from_quaternion(q)  # (nb, 3, 3)
         step = len(self.steps)
-        self.steps.append((context.get_time(), p[self._free], q[self._free], V, *self._energy(p[self._free], R, V)))
-        geometry = (step, context.get_time(), p, q, contact_extraction.near_distances(query))
+        free = self._free
+        self.steps.append((context.get_time(), p[free], q[free], V, *self._energy(p[free], R_all[free], V)))
+        geometry = (step, context.get_time(), p, q, R_all, contact_extraction.near_distances(query))
         if self._sampled:
             # Sampled ports report the contacts of the last discrete update, computed
             # from the previous step's state: pair them with that state's geometry.
             geometry, self._pending = self._pending, geometry
             if geometry is None:
                 return
-        step, t, p, q, distances = geometry
+        step, t, p, q, R_all, distances = geometry
         columns = contact_extraction.from_contact_results(self._results_port.Eval(context), distances, self._owner)
         columns["p_WA"], columns["q_WA"] = p[columns["a"]], q[columns["a"]]
         columns["p_WB"], columns["q_WB"] = p[columns["b"]], q[columns["b"]]
