@@ -5,7 +5,7 @@
   testbed run-all [--out DIR] [--duration S] [--models hydroelastic point]
   testbed validate [--suite default|full] [--workers N] [--executor local|ray]
                    [--address A] [--resume RUN_DIR]       (the main job)
-  testbed study sim|query [--out DIR] [--quick]
+  testbed study sim|query|stability [--out DIR] [--quick]
 
 Errors in the user's input (scene files, overrides, options) print one line naming
 the file and field and exit with status 2; a simulation that fails (solver
@@ -98,7 +98,28 @@ def cmd_validate(args) -> int:
 def cmd_study(args) -> int:
     out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{_timestamp()}"
     out.mkdir(parents=True, exist_ok=True)
-    if args.which == "query":
+    if args.which == "stability":
+        import json
+
+        from testbed.report import stability_matrix
+        from testbed.studies.stability import matrix_cases, run_matrix_entry
+
+        grid = matrix_cases(quick=args.quick)
+        if not args.quiet:
+            from tqdm import tqdm
+
+            grid = tqdm(grid, desc="stability matrix")
+        rows = [run_matrix_entry(name, kw) for name, kw in grid]
+        (out / "stability.json").write_text(json.dumps(rows, indent=1, default=float))
+        columns, table = stability_matrix(rows)
+        md = ["| case | " + " | ".join(columns) + " |", "|---" * (len(columns) + 1) + "|"]
+        md += ["| " + " | ".join(row) + " |" for row in table]
+        (out / "stability.md").write_text("\n".join(md) + "\n")
+        for r in rows:
+            if not r["stable"]:
+                print(f"UNSTABLE {r['case']} / {r['model']} / {r['approximation']} / h={r['time_step']:g}: {r['failed']}")
+        print(f"{sum(r['stable'] for r in rows)} of {len(rows)} stable")
+    elif args.which == "query":
         from testbed.studies.query import run_query_study
 
         run_query_study(out, quick=args.quick, progress=not args.quiet)
@@ -150,7 +171,7 @@ def build_parser() -> argparse.ArgumentParser:
     val.add_argument("--quiet", action="store_true", help="no progress bar")
     val.set_defaults(func=cmd_validate)
     study = sub.add_parser("study", help="one study on its own: sim (time step x model x approximation) or query")
-    study.add_argument("which", choices=["sim", "query"])
+    study.add_argument("which", choices=["sim", "query", "stability"])
     study.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
     study.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
     study.add_argument("--quick", action="store_true", help="a small grid (about a minute)")

@@ -154,6 +154,12 @@ def summary_markdown(metrics: dict) -> str:
             for row in case["result"]["rows"]:
                 ratio = f"{row['ratio']:.2f}x" if row.get("status") == "ok" else row.get("status")
                 lines.append(f"- {case['result']['scene']}: {row['effect']}: {ratio}")
+    rows = list(stability_rows(metrics))
+    if rows:
+        lines += ["", "## Stability matrix (unstable entries)", ""]
+        unstable = [r for r in rows if not r["stable"]]
+        lines += [f"- {r['case']} / {r['model']} / {r['approximation']} / h = {r['time_step']:g} s: {r['failed']}" for r in unstable]
+        lines.append(f"\n{len(rows) - len(unstable)} of {len(rows)} grid entries stable.")
     query = _query(metrics)
     if query:
         lines += ["", "## Query study", "", query.get("markdown", "(see index.html)")]
@@ -164,6 +170,26 @@ def _sim_rows(metrics):
     for case in metrics["cases"].values():
         if case["kind"] == "sim_sweep" and case["status"] == "ok":
             yield from case["result"]["rows"]
+
+
+def stability_rows(metrics):
+    for case in metrics["cases"].values():
+        if case["kind"] == "stability" and case["status"] == "ok":
+            yield from case["result"]["rows"]
+
+
+def stability_matrix(rows) -> tuple[list[str], list[list[str]]]:
+    """(column labels, rows) of the matrix: case x (model, approximation, time step)."""
+    columns, table = [], {}
+    for r in rows:
+        column = f"{r['model']} / {r['approximation']} / {r['time_step']:g} s"
+        if column not in columns:
+            columns.append(column)
+        cell = "stable" if r["stable"] else f"UNSTABLE: {r['failed']}"
+        if r["case"].startswith("wobble"):
+            cell += f" (sigma/h2g {r.get('sigma_phi_over_h2g', float('nan')):.3g} at h sqrt(k/m) {r.get('h_sqrt_k_over_m', float('nan')):.2f})"
+        table.setdefault(r["case"], {})[column] = cell
+    return columns, [[case] + [cells.get(c, "") for c in columns] for case, cells in table.items()]
 
 
 def _query(metrics):
@@ -260,6 +286,12 @@ def index_html(metrics: dict) -> str:
                             [(r["scene"], r["model"], r["approximation"], f"{r['time_step']:g}",
                               f"{r['ms_per_sim_second']:.0f}", f"{r['deviation_m'] * 1e3:.3f}",
                               f"{r['max_penetration_m'] * 1e3:.2f}", f"{r['energy_gain_J']:.1f}", r["status"]) for r in rows]))
+    rows = list(stability_rows(metrics))
+    if rows:
+        columns, table = stability_matrix(rows)
+        parts.append("<h2>Stability matrix</h2><p>Case x contact model / approximation / time step. A cell names "
+                     "the criterion that failed and its figure (testbed/studies/stability.py states each criterion).</p>"
+                     + _table(["case"] + columns, table))
     if "effects" in plots:
         parts.append(f"<h2>What each effect costs</h2><img src='data:image/png;base64,{plots['effects']}' alt='effect costs'>")
     scene_rows = [(cid, f"{s['real_time_factor']:.2f}", f"{s['max_penetration_m'] * 1e3:.2f}",

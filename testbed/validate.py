@@ -67,6 +67,7 @@ def suite(name: str) -> list[Case]:
         cases += [Case("effect-costs-five_stack", "effect_costs", {"scene": "five_stack", "duration": 0.3})]
         cases += [Case("query-study", "query_study", {"quick": True, "seed": 0})]
         cases += [Case("learned-gates", "learned_gates", {"seed": 0})]
+        cases += stability_cases(quick=True)
         return cases
     if name == "full":
         from testbed.scenario import shipped_scenes
@@ -80,8 +81,18 @@ def suite(name: str) -> list[Case]:
         cases += [Case(f"effect-costs-{s}", "effect_costs", {"scene": s, "duration": 1.0}) for s in ("two_stack", "five_stack")]
         cases += [Case("query-study", "query_study", {"quick": False, "seed": 0})]
         cases += [Case("learned-gates", "learned_gates", {"seed": 0})]
+        cases += stability_cases(quick=False)
         return cases
     raise TestbedError(f"--suite: unknown suite {name!r}; expected one of: {', '.join(SUITES)}")
+
+
+def stability_cases(quick: bool, per_case: int = 6) -> list[Case]:
+    """The stability matrix split into cases of `per_case` grid entries each."""
+    from testbed.studies.stability import matrix_cases
+
+    grid = [[name, kw] for name, kw in matrix_cases(quick=quick)]
+    return [Case(f"stability-{i // per_case:02d}", "stability", {"entries": grid[i:i + per_case]})
+            for i in range(0, len(grid), per_case)]
 
 
 # ----------------------------------------------------------------------------- workers
@@ -160,7 +171,14 @@ def _learned_gates_case(seed) -> dict:
     return evaluate_gates(seed=seed)
 
 
+def _stability_case(entries) -> dict:
+    from testbed.studies.stability import run_matrix_entry
+
+    return {"rows": [run_matrix_entry(name, kw) for name, kw in entries]}
+
+
 CASE_KINDS = {
+    "stability": _stability_case,
     "scene": _scene_case,
     "sim_sweep": _sim_sweep_case,
     "effect_costs": _effect_costs_case,

@@ -1,0 +1,263 @@
+"""`crane`: a trolley and hoist carrying one container on four ropes, with twistlocks.
+
+Model (chosen for a ship-to-shore or gantry crane at container-handling scale):
+- The trolley is kinematic: its position x_T(t) along world x and the hoisted rope
+  length L(t) follow the prescribed `moves` (trapezoidal speed profiles and pauses).
+- Four ropes run from sheaves on the trolley, at height `trolley_height`, straight
+  down to the four top corner castings of the container; the spreader's mass is
+  neglected (the container is the pendulum). Each rope is a tension-only
+  spring-damper: T = max(0, k (l - L) + c dl/dt), k = rope_EA / L, with damping c
+  from `rope_damping_ratio` of the vertical mode of the hanging container. Sway comes
+  only from the trolley's acceleration.
+- The twistlocks release (rope forces vanish for good) when the container is seated
+  (in contact and descending slower than `seated_speed`) or at `release_time`.
+At t = 0 the container hangs at rest where the scene puts it: the initial rope
+length is the static-equilibrium length for that pose. Adds one system, `crane`.
+"""
+
+import dataclasses
+import math
+import typing
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.multibody.math import SpatialForce
+from pydrake.multibody.plant import ContactResults, ExternallyAppliedSpatialForce
+from pydrake.systems.framework import LeafSystem
+
+from testbed.containers import CONTAINER_TYPES
+from testbed.effects import register
+from testbed.effects.base import Effect
+
+GRAVITY = 9.81  # [m/s^2]
+
+
+@dataclasses.dataclass
+class CraneMove:
+    kind: str = "pause"  # trolley (to world x = target [m]) | hoist (rope length change = target [m], + pays out) | pause
+    target: float = 0.0
+    speed: float = 0.5  # [m/s] cruise speed
+    acceleration: float = 0.5  # [m/s^2]
+    duration: float = 0.0  # [s] for pauses
+
+
+@dataclasses.dataclass
+class CraneConfig:
+    container: str = ""  # name of the carried container
+    trolley_height: float = 30.0  # [m] height of the rope sheaves above the quay
+    rope_EA: float = 7.0e7  # [N] axial stiffness of one rope (steel wire rope ~30 mm: E ~ 1e11 Pa x A ~ 7e-4 m^2)
+    rope_damping_ratio: float = 0.05  # [-] of the vertical bounce mode
+    moves: typing.List[CraneMove] = dataclasses.field(default_factory=list)
+    seated_speed: float = 0.02  # [m/s] descent speed below which a container in contact is seated
+    release_time: typing.Optional[float] = None  # [s] scheduled twistlock release (None: when seated)
+
+
+class Profile:
+    """Piecewise trolley position x_T(t) [m] and rope length change dL(t) [m]."""
+
+    def __init__(self, moves: list[CraneMove], x0: float):
+        self.segments = []  # (t0, t1, channel, start, delta, speed, acceleration)
+        t, x, dl = 0.0, x0, 0.0
+        for move in moves:
+            if move.kind == "pause":
+                t += move.duration
+                continue
+            start = x if move.kind == "trolley" else dl
+            delta = (move.target - x) if move.kind == "trolley" else move.target
+            duration = _trapezoid_duration(abs(delta), move.speed, move.acceleration)
+            self.segments.append((t, t + duration, move.kind, start, delta, move.speed, move.acceleration))
+            t += duration
+            if move.kind == "trolley":
+                x = move.target
+            else:
+                dl += move.target
+        self.x0, self.end_time = x0, t
+
+    def __call__(self, t: float) -> tuple[float, float, float, float]:
+        """(x_T, v_T, dL, dL_dot) at time t."""
+        x, v, dl, dl_dot = self.x0, 0.0, 0.0, 0.0
+        for t0, t1, kind, start, delta, speed, accel in self.segments:
+            if t < t0:
+                break
+            s, s_dot = _trapezoid(min(t, t1) - t0, abs(delta), speed, accel)
+            sign = math.copysign(1.0, delta) if delta else 0.0
+            if t >= t1:
+                s_dot = 0.0
+            if kind == "trolley":
+                x, v = start + sign * s, sign * s_dot
+            else:
+                dl, dl_dot = start + sign * s, sign * s_dot
+        return x, v, dl, dl_dot
+
+
+def _trapezoid_duration(distance, speed, accel) -> float:
+    if distance <= 0:
+        return 0.0
+    if speed**2 / accel >= distance:  # triangular profile
+        return 2.0 * math.sqrt(distance / accel)
+    return distance / speed + speed / accel
+
+
+def _trapezoid(t, distance, speed, accel) -> tuple[float, float]:
+    """Distance covered and speed at time t of a rest-to-rest trapezoidal profile."""
+    if distance <= 0:
+        return 0.0, 0.0
+    total = _trapezoid_duration(distance, speed, accel)
+    peak = min(speed, math.sqrt(distance * accel))
+    t_ramp = peak / accel
+    if t <= t_ramp:
+        return 0.5 * accel * t * t, accel * t
+    if t >= total - t_ramp:
+        r = max(0.0, total - t)
+        return distance - 0.5 * accel * r * r, accel * r
+    return 0.5 * accel * t_ramp**2 + peak * (t - t_ramp), peak
+
+
+class CraneSystem(LeafSystem):
+    def __init__(self, assembly, config: CraneConfig):
+        super().__init__()
+        self.set_name("crane")
+        plant = assembly.plant
+        spec = next(c for c in assembly.scenario.containers if c.name == config.container)
+        self._body = assembly.bodies[spec.name]
+        self._body_index = int(self._body.index())
+        self._geometries = set(plant.GetCollisionGeometriesForBody(self._body))
+        half = CONTAINER_TYPES[spec.type].half_size
+        self._p_BoC_B = np.array([[sx * half[0], sy * half[1], half[2]] for sx in (-1, 1) for sy in (-1, 1)])  # (4, 3)
+        X_WC0 = spec.pose()
+        p_WC0 = X_WC0.rotation().matrix() @ self._p_BoC_B.T + X_WC0.translation()[:, None]  # (3, 4) corners
+        self._sheave_offsets = self._p_BoC_B[:, :2].copy()  # (4, 2) sheave x, y offsets from the trolley
+        self._y_T = X_WC0.translation()[1]
+        self._height = config.trolley_height
+        length0 = self._height - p_WC0[2].mean()  # mean rope length at t = 0 [m]
+        if length0 <= 0.5:
+            raise ValueError("trolley_height must be well above the carried container")
+        mass = spec.total_mass()
+        self._EA = config.rope_EA
+        stretch = mass * GRAVITY / 4.0 / (self._EA / length0)  # static stretch per rope [m]
+        self._L0 = length0 - stretch  # unstretched rope length at t = 0 [m]
+        k_total = 4.0 * self._EA / length0
+        self._c = 2.0 * config.rope_damping_ratio * math.sqrt(k_total * mass) / 4.0  # per rope [N s/m]
+        self._profile = Profile(config.moves, X_WC0.translation()[0])
+        self._seated_speed = config.seated_speed
+        self._release_time = config.release_time
+        self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
+        self._velocities = self.DeclareAbstractInputPort(
+            "body_spatial_velocities", plant.get_body_spatial_velocities_output_port().Allocate())
+        self._contacts = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))
+        self._released = self.DeclareAbstractState(AbstractValue.Make(-1.0))  # release time, -1 = locked
+        self.DeclarePeriodicUnrestrictedUpdateEvent(plant.time_step(), 0.0, self._update_locks)
+        self.DeclareAbstractOutputPort(
+            "spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc_forces)
+        builder = assembly.builder
+        builder.AddSystem(self)
+        builder.Connect(plant.get_body_poses_output_port(), self._poses)
+        builder.Connect(plant.get_body_spatial_velocities_output_port(), self._velocities)
+        builder.Connect(plant.get_contact_results_output_port(), self._contacts)
+        assembly.add_spatial_forces(self.get_output_port())
+        self.release_log: list[float] = []
+
+    def sheaves_W(self, t: float) -> np.ndarray:
+        """(4, 3) sheave positions [m] at time t."""
+        x_T = self._profile(t)[0]
+        return np.column_stack([x_T + self._sheave_offsets[:, 0], self._y_T + self._sheave_offsets[:, 1],
+                                np.full(4, self._height)])
+
+    def _in_contact(self, results) -> bool:
+        """Whether any contact involving the carried container is reported."""
+        for i in range(results.num_hydroelastic_contacts()):
+            surface = results.hydroelastic_contact_info(i).contact_surface()
+            if surface.id_M() in self._geometries or surface.id_N() in self._geometries:
+                return True
+        index = self._body.index()
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            if index in (info.bodyA_index(), info.bodyB_index()):
+                return True
+        return False
+
+    def _update_locks(self, context, state) -> None:
+        released = context.get_abstract_state(0).get_value()
+        if released >= 0:
+            return
+        t = context.get_time()
+        release = self._release_time is not None and t >= self._release_time
+        if not release and self._release_time is None:
+            v = self._velocities.Eval(context)[self._body_index].translational()
+            if abs(v[2]) < self._seated_speed and self._in_contact(self._contacts.Eval(context)) and t > 0:
+                release = True
+        if release:
+            state.get_mutable_abstract_state(0).set_value(t)
+            self.release_log.append(t)
+
+    def _calc_forces(self, context, output) -> None:
+        t = context.get_time()
+        released = context.get_abstract_state(0).get_value() >= 0
+        force = ExternallyAppliedSpatialForce()
+        force.body_index = self._body.index()
+        force.p_BoBq_B = np.zeros(3)
+        if released:
+            force.F_Bq_W = SpatialForce(tau=np.zeros(3), f=np.zeros(3))
+            output.set_value([force])
+            return
+        X_WB = self._poses.Eval(context)[self._body_index]
+        V_WB = self._velocities.Eval(context)[self._body_index]
+        R_WB, p_WBo = X_WB.rotation().matrix(), X_WB.translation()
+        x_T, v_T, dl, dl_dot = self._profile(t)
+        p_BoC_W = self._p_BoC_B @ R_WB.T  # (4, 3)
+        p_WC = p_WBo + p_BoC_W
+        v_WC = V_WB.translational() + np.cross(V_WB.rotational(), p_BoC_W)  # (4, 3)
+        sheaves = self.sheaves_W(t)
+        rope = sheaves - p_WC  # (4, 3) corner -> sheave
+        length = np.linalg.norm(rope, axis=1)
+        u = rope / length[:, None]
+        v_sheave = np.array([v_T, 0.0, 0.0])
+        length_dot = np.einsum("ij,ij->i", v_sheave - v_WC, u)
+        rest = self._L0 + dl
+        k = self._EA / rest
+        tension = np.maximum(0.0, k * (length - rest) + self._c * (length_dot - dl_dot))  # (4,) [N]
+        f = tension[:, None] * u  # (4, 3) on the container at its corners
+        tau = np.cross(p_BoC_W, f).sum(axis=0)
+        force.F_Bq_W = SpatialForce(tau=tau, f=f.sum(axis=0))
+        output.set_value([force])
+
+
+@register
+class CraneEffect(Effect):
+    name = "crane"
+    Config = CraneConfig
+    order = 25
+    requires = ("contact",)
+
+    def check(self, effects) -> None:
+        super().check(effects)
+        names = {c.name: c for c in self.scenario.containers}
+        if self.config.container not in names:
+            raise self.fail("container", f"expected the name of a container in this scene, one of: {', '.join(names)}; got {self.config.container!r}")
+        if names[self.config.container].fixed:
+            raise self.fail("container", "the carried container must not be fixed")
+        for field in ("trolley_height", "rope_EA"):
+            if not getattr(self.config, field) > 0:
+                raise self.fail(field, f"expected a positive number, got {getattr(self.config, field)}")
+        if not 0 <= self.config.rope_damping_ratio < 2:
+            raise self.fail("rope_damping_ratio", "expected a damping ratio in [0, 2)")
+        for i, move in enumerate(self.config.moves):
+            if move.kind not in ("trolley", "hoist", "pause"):
+                raise self.fail(f"moves[{i}].kind", f"unknown move {move.kind!r}; expected one of: trolley, hoist, pause")
+            if move.kind != "pause" and not (move.speed > 0 and move.acceleration > 0):
+                raise self.fail(f"moves[{i}]", "expected positive speed and acceleration")
+            if move.kind == "pause" and not move.duration >= 0:
+                raise self.fail(f"moves[{i}].duration", "expected a non-negative pause [s]")
+        spec = names[self.config.container]
+        top = spec.pose().translation()[2] + CONTAINER_TYPES[spec.type].half_size[2]
+        if self.config.trolley_height < top + 1.0:
+            raise self.fail("trolley_height", f"expected at least 1 m above the carried container's top ({top:.2f} m)")
+
+    def add_systems(self, assembly) -> list:
+        self.crane = CraneSystem(assembly, self.config)
+        return [self.crane]
+
+    def summarize(self, tables) -> dict:
+        released = self.crane.release_log
+        return {"crane_profile_end_s": self.crane._profile.end_time,
+                "crane_release_time_s": released[0] if released else None}
