@@ -188,8 +188,15 @@ CASE_KINDS = {
 
 # Result fields that measure time: they differ between runs, everything else is
 # deterministic (the resume test compares reports without them).
-TIMING_KEYS = ("wall_s", "wall_time_s", "real_time_factor", "ms_per_sim_second", "bare_wall_s",
-               "effect_wall_s", "ratio", "time_per_query", "pareto_png_hex", "timing")
+TIMING_KEYS = ("wall_s", "wall_time_s", "real_time_factor", "ms_per_sim_second", "bare_wall_s", "effect_wall_s",
+               "ratio", "recording_cost_ratio", "pareto_png_hex", "pareto", "markdown", "throughput_us_per_pair",
+               "created")
+_TIMING_FRAGMENTS = ("time_us", "_ms", "_us", "wall")
+
+
+def is_timing_key(key: str) -> bool:
+    """Whether a result field measures time (so may differ between two identical runs)."""
+    return key in TIMING_KEYS or any(fragment in key for fragment in _TIMING_FRAGMENTS)
 
 
 # ----------------------------------------------------------------------------- executors

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from testbed import cli
-from testbed.validate import TIMING_KEYS, Case, suite, validate
+from testbed.validate import Case, is_timing_key, suite, validate
 
 SCHEMA = Path(__file__).resolve().parent.parent / "testbed" / "report_schema.json"
 
@@ -21,7 +21,7 @@ def _deterministic(metrics: dict) -> dict:
 
     def strip(value):
         if isinstance(value, dict):
-            return {k: strip(v) for k, v in value.items() if k not in TIMING_KEYS and k != "created"}
+            return {k: strip(v) for k, v in value.items() if not is_timing_key(k)}
         if isinstance(value, list):
             return [strip(v) for v in value]
         return value

@@ -1,0 +1,118 @@
+"""Stress suite: hard cases stay numerically stable (testbed/studies/stability.py).
+
+Every entry of the stability grid is a test: near-parallel landings (tilt 1e-5 to
+1e-1 rad), edge-on-edge and corner-on-face landings, mass ratios 15:1 and 1000:1, a
+2 m/s drop onto a stack and Drake's wobble protocol, each at the baseline
+(hydroelastic, SAP, 1 ms) and with one axis varied (model, approximation, time
+step). The criteria and their tolerances are stated in stability.py's docstring.
+Entries where Drake (or the chosen contact model) fails are expected failures with
+the measured figure; `slow` marks the longest entries (CI runs them all).
+"""
+
+import numpy as np
+import pytest
+
+from testbed.studies.stability import G, check, matrix_cases, resting_stack, run_matrix_entry, wobble
+
+# Why the known failures fail (each entry below carries its measured figure).
+HYDRO_EDGE = ("hydroelastic: a compliant box's pressure field (medial axis, DESIGN.md s.3) is 0 at its surface and "
+              "rises by E = 1e8 Pa over 1.22 m inwards, so a leading edge or corner carries little force until it is "
+              "deep; a 0.3 m/s edge- or corner-first landing sinks far beyond a steel corner casting's")
+POINT_HOPS = ("point contact keeps one corner per step (FCL's dBoxBox, DESIGN.md s.3); the hopping corner and its "
+              "tangential impulses walk the resting box sideways")
+POINT_MASS_RATIO = ("point contact, 1000:1: the 32.5 kg box between a 32.5 t box and the quay, on single-point "
+                    "contacts of 1e9 N/m, has h sqrt(k/m) ~ 5.5 > pi at 1 ms: it is crushed and energy is created")
+HYDRO_COARSE = ("1000:1 at h = 10 ms: the 32.5 kg box's contact mode has h sqrt(k/m) ~ 43 >> pi, far beyond "
+                "Drake's documented stability limit")
+OTHER = ("the 'similar' approximation lets the edge-first (1e-2 rad) landing creep over the last 0.5 s; "
+         "SAP, TAMSI and lagged settle")
+
+# (case, params, model, approximation, time step) -> (reason, measured figure, marginal).
+# Marginal entries (figure within 20% of its bound) are non-strict xfails: a different
+# CPU may land them on either side of the bound. Measured on pydrake 1.51.1, x86_64.
+KNOWN_FAILURES = {
+    ('near_parallel', (('tilt', 1e-05),), 'point', 'sap', 0.001): (POINT_HOPS, 'drift 1.03 mm/min', True),
+    ('near_parallel', (('tilt', 0.01),), 'hydroelastic', 'sap', 0.001): (HYDRO_EDGE, 'penetration 6.54 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.01),), 'point', 'sap', 0.001): (POINT_HOPS, 'drift 284.93 mm/min', False),
+    ('near_parallel', (('tilt', 0.01),), 'hydroelastic_with_fallback', 'sap', 0.001): (HYDRO_EDGE, 'penetration 6.54 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.01),), 'hydroelastic', 'tamsi', 0.001): (HYDRO_EDGE, 'penetration 5.05 mm > 5 mm', True),
+    ('near_parallel', (('tilt', 0.01),), 'hydroelastic', 'similar', 0.001): (OTHER, 'drift 1.75 mm/min', False),
+    ('near_parallel', (('tilt', 0.01),), 'hydroelastic', 'sap', 0.01): (HYDRO_EDGE, 'penetration 5.26 mm > 5 mm', True),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'sap', 0.001): (HYDRO_EDGE, 'penetration 18.57 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.1),), 'point', 'sap', 0.001): (POINT_HOPS, 'drift 21.17 mm/min', False),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic_with_fallback', 'sap', 0.001): (HYDRO_EDGE, 'penetration 18.57 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'tamsi', 0.001): (HYDRO_EDGE, 'penetration 13.29 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'similar', 0.001): (HYDRO_EDGE, 'penetration 12.70 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'lagged', 0.001): (HYDRO_EDGE, 'penetration 13.24 mm > 5 mm', False),
+    ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'sap', 0.01): (HYDRO_EDGE, 'penetration 15.95 mm > 5 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'sap', 0.001): (HYDRO_EDGE, 'penetration 78.06 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic_with_fallback', 'sap', 0.001): (HYDRO_EDGE, 'penetration 78.06 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'tamsi', 0.001): (HYDRO_EDGE, 'penetration 48.57 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'similar', 0.001): (HYDRO_EDGE, 'penetration 46.91 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'lagged', 0.001): (HYDRO_EDGE, 'penetration 48.59 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'sap', 0.01): (HYDRO_EDGE, 'penetration 71.15 mm > 20 mm', False),
+    ('edge_on_edge', (), 'hydroelastic', 'sap', 0.0001): (HYDRO_EDGE, 'penetration 78.95 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'sap', 0.001): (HYDRO_EDGE, 'penetration 247.10 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic_with_fallback', 'sap', 0.001): (HYDRO_EDGE, 'penetration 247.10 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'tamsi', 0.001): (HYDRO_EDGE, 'penetration 168.26 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'similar', 0.001): (HYDRO_EDGE, 'penetration 151.53 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'lagged', 0.001): (HYDRO_EDGE, 'penetration 168.30 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'sap', 0.01): (HYDRO_EDGE, 'penetration 234.78 mm > 20 mm', False),
+    ('corner_on_face', (), 'hydroelastic', 'sap', 0.0001): (HYDRO_EDGE, 'penetration 248.56 mm > 20 mm', False),
+    ('mass_ratio', (('heavy', 32500.0), ('heavy_type', '1AAA'), ('light', 2200.0)), 'point', 'sap', 0.001): (POINT_HOPS, 'drift 5.72 mm/min', False),
+    ('mass_ratio', (('heavy', 32500.0), ('light', 32.5)), 'point', 'sap', 0.001): (POINT_MASS_RATIO, 'energy grew by 9.01e+04 J after first contact; penetration 279.61 mm > 5 mm', False),
+    ('mass_ratio', (('heavy', 32500.0), ('light', 32.5)), 'hydroelastic', 'sap', 0.01): (HYDRO_COARSE, 'penetration 15.68 mm > 5 mm', False),
+}
+
+
+def _key(name, kw):
+    return (name, tuple(sorted((k, v) for k, v in kw.items() if k not in ("model", "approximation", "time_step"))),
+            kw.get("model", "hydroelastic"), kw.get("approximation", "sap"), kw.get("time_step", 1e-3))
+
+
+def _params():
+    out = []
+    for name, kw in matrix_cases(quick=False):
+        key = _key(name, kw)
+        marks = []
+        if kw.get("time_step", 1e-3) < 1e-3 or name == "drop_on_stack":
+            marks.append(pytest.mark.slow)
+        if key in KNOWN_FAILURES:
+            reason, figure, marginal = KNOWN_FAILURES[key]
+            marks.append(pytest.mark.xfail(strict=not marginal, reason=f"{reason}: measured {figure}"))
+        label = "-".join(str(x) for x in (name, *[f"{k}={v}" for k, v in sorted(kw.items())]))
+        out.append(pytest.param(name, kw, marks=marks, id=label))
+    return out
+
+
+@pytest.mark.parametrize("name, kw", _params())
+def test_stress_entry_is_stable(name, kw):
+    row = run_matrix_entry(name, kw)
+    assert row["finite"] if "finite" in row else True
+    assert row["stable"], row["failed"]
+
+
+def test_wobble_stays_below_the_documented_amplitude():
+    """Drake documents a corner-to-corner wobble of amplitude about h^2 g when
+    h sqrt(k/m) exceeds ~pi. Across h sqrt(k/m) from 0.5 to 5.2, with and without the
+    1e-4 m margin, sigma(|phi|) must stay below 0.1 h^2 g (a tenth of the documented
+    amplitude): the wobble is absent for this container pair under SAP."""
+    figures = []
+    for h in (1e-3, 5e-3, 1e-2):
+        for margin in (0.0, 1e-4):
+            case = wobble(h, margin=margin)
+            row = check(case)
+            assert row["stable"], row["failed"]
+            figures.append((row["h_sqrt_k_over_m"], row["sigma_phi_over_h2g"]))
+    assert max(x for x, _ in figures) > np.pi  # the grid reaches the unstable regime
+    assert all(sigma < 0.1 for _, sigma in figures), figures
+
+
+@pytest.mark.slow
+def test_nine_high_stack_rests_for_a_minute():
+    """60 s of simulated time at the baseline: drift below 1 mm per minute, weight
+    carried within 1%, energy not created, penetration below 5 mm."""
+    case = resting_stack("nine_mixed_stack", duration=60.0)
+    row = check(case)
+    assert row["stable"], row["failed"]
+    assert row["drift_per_minute_m"] < 1e-3
