@@ -3,9 +3,11 @@
   testbed scenes                         list the shipped scenes
   testbed run SCENE [--out DIR] [--duration S] [--set key=value ...]
   testbed run-all [--out DIR] [--duration S] [--models hydroelastic point]
+  testbed view SCENE [--port P] [--host H] [--rate R]     (Meshcat, until Ctrl-C)
   testbed validate [--suite default|full] [--workers N] [--executor local|ray]
                    [--address A] [--resume RUN_DIR]       (the main job)
   testbed study sim|query|stability [--out DIR] [--quick]
+  testbed train [--out DIR] [--seed N]                    (needs the `train` extra: torch)
 
 Errors in the user's input (scene files, overrides, options) print one line naming
 the file and field and exit with status 2; a simulation that fails (solver
@@ -143,6 +145,33 @@ def cmd_study(args) -> int:
     return 0
 
 
+def cmd_train(args) -> int:
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        from testbed.errors import OptionalDependencyError
+
+        raise OptionalDependencyError("torch", "testbed train", "train") from None
+    from learned_contact.training import train_default
+
+    out = Path(args.out) if args.out else Path("reports") / f"train-{_timestamp()}"
+    metrics = train_default(out, seed=args.seed, progress=not args.quiet)
+    print((out / "report.md").read_text())
+    print(f"trained model: {out} (wall time {metrics['wall_time_s']['total']:.0f} s); "
+          f"to ship it: copy its files into learned_contact/shipped/")
+    return 0
+
+
+def cmd_view(args) -> int:
+    from testbed.viewer import view
+
+    if args.duration is not None and not args.duration > 0:
+        raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
+    view(args.scene, port=args.port, host=args.host, rate=args.rate, overrides=args.set or [],
+         duration=args.duration, out=args.out)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="testbed", description="Container contact testbed (Drake).")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -162,6 +191,16 @@ def build_parser() -> argparse.ArgumentParser:
                          help="contact models to run each scene with (default: hydroelastic point)")
     run_all.add_argument("--quiet", action="store_true", help="no progress bars")
     run_all.set_defaults(func=cmd_run_all)
+    v = sub.add_parser("view", help="simulate a scene live in the Meshcat viewer, write its replay, serve until Ctrl-C")
+    v.add_argument("scene", help="a scene YAML file or the name of a shipped scene")
+    v.add_argument("--port", type=int, default=7000, help="TCP port (default 7000; 0 = any free port)")
+    v.add_argument("--host", default="localhost",
+                   help="interface to listen on (default localhost; others warn: Meshcat has no authentication)")
+    v.add_argument("--rate", type=float, default=1.0, help="target real-time rate (1 = real time, 0 = as fast as possible)")
+    v.add_argument("--duration", type=float, help="simulated time [s] (default: the scene's)")
+    v.add_argument("--out", help="run directory (default reports/runs/<scene>-view-<time>)")
+    v.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a scene field")
+    v.set_defaults(func=cmd_view)
     val = sub.add_parser("validate", help="run a validation suite and write reports/<time>/ (exit 3 if a gate fails)")
     val.add_argument("--suite", default="default", help="default (about 10 min on 2 cores), full, or smoke (seconds)")
     val.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
@@ -177,6 +216,11 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
     study.add_argument("--quiet", action="store_true", help="no progress bars")
     study.set_defaults(func=cmd_study)
+    train = sub.add_parser("train", help="train the learned predictors from a seed (reproduces learned_contact/shipped)")
+    train.add_argument("--out", help="output directory (default reports/train-<time>)")
+    train.add_argument("--seed", type=int, default=0, help="seed of the shipped model: 0")
+    train.add_argument("--quiet", action="store_true", help="no progress bars")
+    train.set_defaults(func=cmd_train)
     return parser
 
 

@@ -24,6 +24,7 @@ class RunResult:
     summary: dict
     final_positions: np.ndarray  # (nq,) plant generalized positions at the end
     body_names: list[str]
+    files: dict = dataclasses.field(default_factory=dict)  # extra run files, name -> str | bytes
     out_dir: Path | None = None
 
 
@@ -83,9 +84,10 @@ def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool
     for effect in scene.effects.values():
         summary.update(effect.summarize(tables))
     plant_context = scene.plant.GetMyContextFromRoot(context)
+    files = {name: content for effect in scene.effects.values() for name, content in effect.files().items()}
     return RunResult(
         scenario=scenario, tables=tables, summary=summary,
-        final_positions=scene.plant.GetPositions(plant_context).copy(), body_names=scene.body_names,
+        final_positions=scene.plant.GetPositions(plant_context).copy(), body_names=scene.body_names, files=files,
     )
 
 
@@ -103,6 +105,11 @@ def write_run(result: RunResult, out_dir: str | Path) -> Path:
         for name, table in result.tables.items():
             save_table(tmp / f"{name}.npz", table)
         write_json(tmp / "summary.json", {**result.summary, "body_names": result.body_names})
+        for name, content in result.files.items():
+            if isinstance(content, bytes):
+                (tmp / name).write_bytes(content)
+            else:
+                (tmp / name).write_text(content)
     result.out_dir = Path(out_dir)
     return result.out_dir
 

@@ -10,7 +10,8 @@ schema under `effects.<name>`) and an Effect subclass registered with
 3. `add_systems(scene)`  add and connect the effect's own systems after the plant
                          is finalised; return them so tests can see what was added;
 4. `collect(tables)`     after simulation, move recorded data into the run's tables;
-5. `summarize(tables)`   add a few headline figures to the run summary.
+5. `summarize(tables)`   add a few headline figures to the run summary;
+6. `files()`             extra files for the run directory (e.g. a Meshcat replay).
 """
 
 
@@ -66,4 +67,8 @@ class Effect:
         pass
 
     def summarize(self, tables: dict[str, dict]) -> dict:
+        return {}
+
+    def files(self) -> dict:
+        """Extra run files this effect made (file name -> str or bytes), written next to the records."""
         return {}

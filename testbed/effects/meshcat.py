@@ -1,0 +1,129 @@
+"""`meshcat`: a live Meshcat viewer with discrepancy overlays, and an optional replay.
+
+Starts Drake's Meshcat server when the scene is built (never at import), listening on
+`host` (default localhost only: Meshcat has no authentication) and `port` (0 or null:
+a free one; a busy port raises MeshcatPortError naming it). Adds three systems:
+
+- `meshcat_visualizer`: the illustration geometry (containers coloured by type, the
+  quay, and any other effect's geometry, e.g. a crane), at `container_opacity`;
+- `meshcat_contact_forces`: Drake's ContactVisualizer (forces, moments and hydroelastic
+  patches) scaled for container loads (`newtons_per_meter`; 2e5 N/m draws 1e4 N as
+  5 cm and 1e6 N as 5 m);
+- `meshcat_overlays`: ground truth / shadow / learned contact points, normals and
+  error segments (testbed/viewer.py describes the paths and colours).
+
+With `record: true` every frame is also recorded; after the run the effect holds the
+self-contained replay HTML (`replay_html`) and offers it as the run file replay.html
+(`files()`). Do not declare this effect for cases run in parallel worker processes.
+
+    effects:
+      meshcat: {port: 7000, record: true, error_threshold: 0.5}
+"""
+
+
+import dataclasses
+import math
+import multiprocessing
+import sys
+import typing
+
+from testbed.effects import register
+from testbed.effects.base import Effect
+
+
+@dataclasses.dataclass
+class MeshcatConfig:
+    host: str = "localhost"  # interface to listen on; anything but loopback warns (no authentication)
+    port: typing.Optional[int] = 7000  # TCP port; 0 or null = any free port
+    frame_rate: float = 30.0  # [Hz] viewer/overlay/recording frames (rounded to whole plant steps)
+    record: bool = False  # record the run; the replay goes to replay.html next to the records
+    error_threshold: float = 0.5  # [m] contact-point distance drawn fully red
+    angle_threshold_deg: float = 15.0  # [deg] normal angle drawn fully red
+    newtons_per_meter: float = 2e5  # [N/m] force arrow scale (1e4..1e6 N -> 0.05..5 m)
+    newton_meters_per_meter: float = 2e5  # [N m/m] moment arrow scale
+    container_opacity: float = 0.45  # [0..1] so the overlays inside a stack stay visible
+    contact_forces: bool = True  # add Drake's ContactVisualizer
+
+
+@register
+class MeshcatEffect(Effect):
+    name = "meshcat"
+    Config = MeshcatConfig
+    order = 90  # after every effect whose records it draws
+
+    meshcat = None
+    replay_html: typing.Optional[str] = None
+
+    def check(self, effects) -> None:
+        super().check(effects)
+        c = self.config
+        if not isinstance(c.host, str) or not c.host.strip():
+            raise self.fail("host", f"expected a host name or address, e.g. localhost, got {c.host!r}")
+        if c.port is not None and not 0 <= c.port <= 65535:
+            raise self.fail("port", f"expected a TCP port 1..65535, or 0/null for any free port, got {c.port}")
+        for field in ("frame_rate", "error_threshold", "angle_threshold_deg", "newtons_per_meter", "newton_meters_per_meter"):
+            value = getattr(c, field)
+            if not (math.isfinite(value) and value > 0):
+                raise self.fail(field, f"expected a positive number, got {value}")
+        if not 0 <= c.container_opacity <= 1:
+            raise self.fail("container_opacity", f"expected a number in [0, 1], got {c.container_opacity}")
+
+    def add_systems(self, assembly) -> list:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Rgba, Role
+        from pydrake.multibody.meshcat import ContactVisualizer, ContactVisualizerParams
+
+        from testbed import viewer
+
+        if multiprocessing.parent_process() is not None:
+            raise self.fail("", "Meshcat must not be started inside a parallel worker process; "
+                                "run this case in the main process or remove effects.meshcat")
+        c = self.config
+        warning = viewer.exposure_warning(c.host)
+        if warning:
+            print(f"testbed: {warning}", file=sys.stderr)
+        self.meshcat = meshcat = viewer.start_meshcat(c.host, c.port)
+        period = viewer.frame_period(c.frame_rate, assembly.plant.time_step())
+        systems = []
+        vis = MeshcatVisualizer.AddToBuilder(assembly.builder, assembly.scene_graph, meshcat, MeshcatVisualizerParams(
+            publish_period=period, role=Role.kIllustration, prefix="visualizer",
+            enable_alpha_slider=True, initial_alpha_slider_value=c.container_opacity,
+        ))
+        vis.set_name("meshcat_visualizer")
+        systems.append(vis)
+        if assembly.plan.collision:
+            if c.contact_forces:
+                contact = ContactVisualizer.AddToBuilder(assembly.builder, assembly.plant, meshcat, ContactVisualizerParams(
+                    publish_period=period, prefix="contact_forces",
+                    color=Rgba(*viewer.POINT_FORCE_RGB, 1.0), hydro_force_color=Rgba(*viewer.HYDRO_FORCE_RGB, 1.0),
+                    hydro_moment_color=Rgba(*viewer.HYDRO_MOMENT_RGB, 1.0),
+                    newtons_per_meter=c.newtons_per_meter, newton_meters_per_meter=c.newton_meters_per_meter,
+                    radius=0.06, force_threshold=1.0, moment_threshold=1.0,
+                ))
+                contact.set_name("meshcat_contact_forces")
+                systems.append(contact)
+            self.painter = viewer.OverlayPainter(
+                meshcat, assembly.body_names, error_threshold=c.error_threshold, angle_threshold_deg=c.angle_threshold_deg,
+            )
+            systems.append(viewer.make_overlay_system(assembly, meshcat, self.painter, period, recording=c.record))
+        viewer.set_camera_for(meshcat, assembly)
+        if c.record:
+            meshcat.StartRecording(frames_per_second=1.0 / period, set_visualizations_while_recording=True)
+        return systems
+
+    def collect(self, tables) -> None:
+        if self.config.record and self.meshcat is not None:
+            from testbed import viewer
+
+            self.replay_html = viewer.finish_recording(self.meshcat)
+
+    def summarize(self, tables) -> dict:
+        out = {"meshcat_url": self.meshcat.web_url() if self.meshcat is not None else None}
+        if self.replay_html is not None:
+            out["replay_bytes"] = len(self.replay_html.encode())
+        return out
+
+    def files(self) -> dict[str, str]:
+        """Run files this effect produced: {'replay.html': html} after a recorded run."""
+        from testbed.viewer import REPLAY_NAME
+
+        return {REPLAY_NAME: self.replay_html} if self.replay_html is not None else {}
