@@ -30,10 +30,13 @@ def test_import_and_predict_do_not_import_torch():
         "pred = learned_contact.load_predictor()\n"
         "p = np.array([[0.5, 0.1, 2.58]]); R = np.eye(3)[None]\n"
         "pred.predict(p, R, size_A=(12.192, 2.438, 2.591), size_B=(6.058, 2.438, 2.591))\n"
-        "print(sorted(m for m in ('torch', 'pydrake') if m in sys.modules))\n"
+        "print(json.dumps(sorted(m for m in sys.modules if m == 'torch' or m.startswith('torch.'))))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True)
-    assert json.loads(out.stdout.strip().replace("'", '"')) == []
+    # (pydrake does get imported: learned_contact's errors derive from testbed.errors, and
+    # importing the testbed package loads pydrake by design.)
+    out = subprocess.run([sys.executable, "-c", "import json\n" + code], cwd=REPO, capture_output=True,
+                         text=True, check=True)
+    assert json.loads(out.stdout.strip()) == []
 
 
 def test_batched_and_single_shapes(pred):

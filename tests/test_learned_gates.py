@@ -8,55 +8,46 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.encodings import octant_signs, paper_outputs
+from learned_contact.gates import THRESHOLDS, gate_figures, held_out
 from learned_contact.labels import make_dataset
-from learned_contact.metrics import paper_table, point_normal_errors
+from learned_contact.metrics import paper_table
 from learned_contact.paper_mlp import PaperConfig, paper_targets, predict_paper, train_paper
 
-N_HELD_OUT = 400
+GATE_SEED = 98_765  # sampling seeds 987_655 / 987_656, never used in training
 
 
 @pytest.fixture(scope="module")
-def pred():
-    return load_predictor()
+def data():
+    return held_out(GATE_SEED)
 
 
 @pytest.fixture(scope="module")
-def stacking():
-    return make_dataset("stacking", N_HELD_OUT, 987_651, progress=False, use_cache=False)
+def figures(data):
+    return gate_figures(load_predictor(), data)
 
 
-@pytest.fixture(scope="module")
-def general():
-    return make_dataset("general", N_HELD_OUT, 987_652, progress=False, use_cache=False)
+@pytest.mark.parametrize("name", list(THRESHOLDS))
+def test_accuracy_gate(figures, name):
+    limit, unit = THRESHOLDS[name]
+    assert figures[name] <= limit, f"{name}: {figures[name]:.4g} {unit} > {limit} {unit}"
 
 
-def _errors(pred, ds):
-    point, normal = pred.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
-    return point, normal, *point_normal_errors(point, normal, ds)
+def test_gate_thresholds_are_the_issue_s():
+    assert {k: v[0] for k, v in THRESHOLDS.items()} == {
+        "stacking point error median": 0.03, "stacking point error p95": 0.15, "stacking normal error p95": 1.0,
+        "general normal error median": 3.0, "general MAE on the paper's 4 outputs": 0.15}
 
 
-def test_stacking_gates(pred, stacking):
-    _, _, e_point, e_normal = _errors(pred, stacking)
-    assert np.median(e_point) <= 0.03, f"median point error {np.median(e_point):.4f} m"
-    assert np.percentile(e_point, 95) <= 0.15, f"p95 point error {np.percentile(e_point, 95):.4f} m"
-    assert np.percentile(e_normal, 95) <= 1.0, f"p95 normal error {np.percentile(e_normal, 95):.3f} deg"
+# Stated MAE of the paper-faithful baseline at this reduced size (2000 train / 1000
+# validation poses, 2 restarts, <= 40 epochs), on the 400 held-out general poses.
+# Measured: 0.260 rad (training seed 0) on GATE_SEED poses; 0.275 and 0.281 (training
+# seeds 0, 1) on another held-out set; a constant predictor scores about 0.50.
+# The paper's own Table 2 external MAE is 0.4523 rad.
+PAPER_BASELINE_MAE = 0.35
 
 
-def test_general_gates(pred, general):
-    point, normal, _, e_normal = _errors(pred, general)
-    assert np.median(e_normal) <= 3.0, f"median normal error {np.median(e_normal):.3f} deg"
-    S = octant_signs(general.p_AB)
-    table = paper_table(paper_outputs(point, normal, S), paper_outputs(general.cop, general.normal, S))
-    assert table["mean"]["MAE"] <= 0.15, f"MAE on the paper's outputs {table['mean']['MAE']:.4f} rad"
-
-
-# Measured with this reduced setting: external MAE ~0.33 rad (2 restarts, 2000/1000);
-# the gate leaves room for seeds, and a constant predictor scores ~0.55 rad.
-PAPER_BASELINE_MAE = 0.42
-
-
-def test_paper_baseline_trains_to_stated_mae(general):
+def test_paper_baseline_trains_to_stated_mae(data):
+    general = data["general"]
     train = make_dataset("general", 2000, 987_653, progress=False, use_cache=False)
     val = make_dataset("general", 1000, 987_654, progress=False, use_cache=False)
     config = PaperConfig(n_train=len(train), n_val=len(val), restarts=2, max_epochs=40, patience=8)

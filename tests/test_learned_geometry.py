@@ -31,7 +31,7 @@ def test_rpy_round_trip():
 def test_aligned_offset_stack_patch_is_overlap_centroid():
     # B (20 ft) offset 5 m along x on A (40 ft), 2 cm deep: the overlap is x in [1.967, 6.096]
     p = np.array([[5.0, 0.0, H_A[2] + H_B[2] - 0.02]])
-    point, normal, depth, _, _ = patch_estimate(p, np.eye(3)[None], H_A[None], H_B[None])
+    point, normal, depth, _, _, _ = patch_estimate(p, np.eye(3)[None], H_A[None], H_B[None])
     np.testing.assert_allclose(normal[0], [0, 0, 1], atol=1e-12)
     np.testing.assert_allclose(depth, 0.02, atol=1e-12)
     np.testing.assert_allclose(point[0], [(5.0 - H_B[0] + H_A[0]) / 2, 0.0, H_A[2] - 0.01], atol=1e-9)
@@ -76,3 +76,19 @@ def test_contact_type_tags_simple_cases():
     p = np.array([[0.0, 0.0, H_A[2] - lowest - 0.01]])
     vertex = contact_type(p, R, H_A, H_B)
     assert face[0] == 3 and vertex[0] == 0
+
+
+def test_patch_estimate_single_rows_match_batched():
+    # the few-pairs path (plain Python clipping) and the vectorised path agree
+    rng = np.random.default_rng(2)
+    n = 60
+    R = random_rotations(rng, n)
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    p = u * rng.uniform(2.0, 4.0, size=(n, 1))
+    hA, hB = np.tile(H_A, (n, 1)), np.tile(H_B, (n, 1))
+    batched = patch_estimate(p, R, hA, hB)
+    for i in range(n):
+        single = patch_estimate(p[i:i + 1], R[i:i + 1], hA[i:i + 1], hB[i:i + 1])
+        for a, b in zip(batched, single):
+            np.testing.assert_allclose(a[i:i + 1], b, atol=1e-12)

@@ -42,7 +42,7 @@ def test_make_dataset_is_cached_and_seeded(tmp_path, monkeypatch):
     b = labels.make_dataset("general", 40, 11, workers=1, progress=False)
     np.testing.assert_array_equal(a.cop, b.cop)
     assert len(a) + a.n_dropped == 40
-    assert np.all(np.abs(a.depth - sample("general", 40, 11).depth[: len(a)]) < 1e-4) or a.n_dropped
+    assert np.all((a.depth > -1e-4) & (a.depth < 0.03 + 1e-4))  # Drake's depth, target range
     np.testing.assert_allclose(np.linalg.norm(a.normal, axis=1), 1.0, atol=1e-9)
 
 

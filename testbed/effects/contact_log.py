@@ -5,8 +5,8 @@ were computed from the state of step k-1; the logger pairs them with that state'
 poses and signed distances, so every contact row is consistent with its poses.
 
 Adds one system, `contact_logger`, that publishes every time step and records:
-- `steps` table: time, poses, spatial velocities and mechanical energy of every
-  free container;
+- `steps` table: step number, time, poses, spatial velocities and mechanical
+  energy of every free container;
 - `contacts` table: the driving model's answer for every contacting pair
   (testbed/contact_extraction.py lists the columns) plus both bodies' poses.
 """
@@ -31,7 +31,10 @@ GRAVITY = 9.81  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 
 @dataclasses.dataclass
 class ContactLogConfig:
-    pass
+    # Record every `every_steps`-th step (1 = every step). Long resting runs can log
+    # at, e.g., 10 ms without losing what they are judged on; each logged row still
+    # pairs contacts with the poses of the state they were computed from.
+    every_steps: int = 1
 
 
 def _pose_columns(poses) -> tuple[np.ndarray, np.ndarray]:
@@ -44,7 +47,7 @@ def _pose_columns(poses) -> tuple[np.ndarray, np.ndarray]:
 class ContactLogger(LeafSystem):
     """Records steps and contacts at every plant time step (a periodic publish)."""
 
-    def __init__(self, assembly):
+    def __init__(self, assembly, every_steps: int = 1):
         super().__init__()
         self.set_name("contact_logger")
         plant = assembly.plant
@@ -72,13 +75,24 @@ class ContactLogger(LeafSystem):
         builder.Connect(plant.get_body_poses_output_port(), self._poses_port)
         builder.Connect(plant.get_body_spatial_velocities_output_port(), self._velocities_port)
         self._assembly = assembly
-        self.DeclarePeriodicPublishEvent(plant.time_step(), 0.0, self._record)
         self.steps: list[tuple] = []
         self.contacts = TableBuilder()
         self._sampled = plant.has_sampled_output_ports()
+        self._every = every_steps
         self._pending = None
+        self._h = h = plant.time_step()
+        period = every_steps * h
+        self.DeclarePeriodicPublishEvent(period, 0.0, self._record)
+        if self._sampled and every_steps > 1:
+            # the state one step before each logged time: the contacts reported at the
+            # logged time were computed from it
+            self.DeclarePeriodicPublishEvent(period, period - h, self._snapshot)
 
-    def _record(self, context) -> None:
+    def _snapshot(self, context) -> None:
+        """Steps row and pose/distance geometry of the current state, for the next record."""
+        self._pending = self._geometry(context)
+
+    def _geometry(self, context):
         query = self._query_port.Eval(context)
         if self._owner is None:
             from testbed.builder import geometry_body_index
@@ -90,16 +104,24 @@ class ContactLogger(LeafSystem):
         V = np.array([np.concatenate([velocities[i].rotational(), velocities[i].translational()])
                       for i in self._free_body_index]).reshape(-1, 6)
         R_all = rotation_from_quaternion(q)  # (nb, 3, 3)
-        step = len(self.steps)
+        step = int(round(context.get_time() / self._h))  # simulation step number
         free = self._free
-        self.steps.append((context.get_time(), p[free], q[free], V, *self._energy(p[free], R_all[free], V)))
-        geometry = (step, context.get_time(), p, q, R_all, contact_extraction.near_distances(query))
-        if self._sampled:
+        self.steps.append((step, context.get_time(), p[free], q[free], V, *self._energy(p[free], R_all[free], V)))
+        return (step, context.get_time(), p, q, R_all, contact_extraction.near_distances(query))
+
+    def _record(self, context) -> None:
+        if not self._sampled:  # unsampled ports: the results belong to this very state
+            geometry = self._geometry(context)
+        elif self._every > 1:  # the snapshot one step earlier holds the state they came from
+            geometry, self._pending = self._pending, None
+        else:
             # Sampled ports report the contacts of the last discrete update, computed
             # from the previous step's state: pair them with that state's geometry.
-            geometry, self._pending = self._pending, geometry
-            if geometry is None:
-                return
+            geometry, self._pending = self._pending, self._geometry(context)
+        if geometry is not None:
+            self._append_contacts(context, geometry)
+
+    def _append_contacts(self, context, geometry) -> None:
         step, t, p, q, R_all, distances = geometry
         columns = contact_extraction.from_contact_results(self._results_port.Eval(context), distances, self._owner)
         columns["p_WA"], columns["q_WA"] = p[columns["a"]], q[columns["a"]]
@@ -119,10 +141,11 @@ class ContactLogger(LeafSystem):
     def tables(self) -> dict[str, dict]:
         m = len(self._free)
         if self.steps:
-            t, p, q, V, ke, pe = (np.asarray(x) for x in zip(*self.steps))
+            k, t, p, q, V, ke, pe = (np.asarray(x) for x in zip(*self.steps))
         else:
-            t, p, q, V, ke, pe = np.zeros(0), np.zeros((0, m, 3)), np.zeros((0, m, 4)), np.zeros((0, m, 6)), np.zeros(0), np.zeros(0)
-        steps = {"time": t, "p_WB": p, "q_WB": q, "V_WB": V, "kinetic_energy": ke, "potential_energy": pe}
+            k, t, p, q, V, ke, pe = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, m, 3)), np.zeros((0, m, 4)),
+                                     np.zeros((0, m, 6)), np.zeros(0), np.zeros(0))
+        steps = {"step": k, "time": t, "p_WB": p, "q_WB": q, "V_WB": V, "kinetic_energy": ke, "potential_energy": pe}
         empty = contact_extraction.empty_columns()
         empty.update(p_WA=np.zeros((0, 3)), q_WA=np.zeros((0, 4)), p_WB=np.zeros((0, 3)), q_WB=np.zeros((0, 4)))
         return {"steps": steps, "contacts": self.contacts.build(empty)}
@@ -134,8 +157,13 @@ class ContactLogEffect(Effect):
     Config = ContactLogConfig
     order = 10
 
+    def check(self, effects) -> None:
+        super().check(effects)
+        if not (isinstance(self.config.every_steps, int) and self.config.every_steps >= 1):
+            raise self.fail("every_steps", f"expected a whole number of steps >= 1, got {self.config.every_steps}")
+
     def add_systems(self, assembly) -> list:
-        self.logger = ContactLogger(assembly)
+        self.logger = ContactLogger(assembly, self.config.every_steps)
         return [self.logger]
 
     def collect(self, tables: dict[str, dict]) -> None:

@@ -44,7 +44,7 @@ class ShadowContactProbe(LeafSystem):
         assembly.builder.Connect(assembly.scene_graph.get_query_output_port(), self._query_port)
         self.DeclarePeriodicPublishEvent(assembly.plant.time_step(), 0.0, self._record)
         self.table = TableBuilder()
-        self._step = 0
+        self._h = assembly.plant.time_step()
 
     def _record(self, context) -> None:
         query = self._query_port.Eval(context)
@@ -57,8 +57,7 @@ class ShadowContactProbe(LeafSystem):
             columns = contact_extraction.point_pairs_from_query(query, self._owner, self._stiffness)
         else:
             columns = contact_extraction.hydro_surfaces_from_query(query, self._owner)
-        self.table.append(self._step, context.get_time(), columns)
-        self._step += 1
+        self.table.append(int(round(context.get_time() / self._h)), context.get_time(), columns)
 
 
 def match_rows(truth: dict, other: dict) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,18 @@
+"""Exceptions of learned_contact, all subclasses of testbed.errors.TestbedError."""
+
+from __future__ import annotations
+
+from testbed.errors import TestbedError
+
+
+class PredictorInputError(TestbedError, ValueError):
+    """Inputs to a predictor that it cannot answer: bad shapes, non-finite values or
+    container sizes it was not trained for (the message lists the supported sizes)."""
+
+
+class DatasetError(TestbedError, ValueError):
+    """A dataset request that cannot be met (unknown distribution, bad size, ...)."""
+
+
+class WeightsError(TestbedError):
+    """A weights file that is missing, unreadable or of an unknown format version."""

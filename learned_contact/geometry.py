@@ -1,0 +1,331 @@
+"""Cheap, fixed-cost box geometry in numpy, batched over poses.
+
+Frames: A is the first box's body frame (origin at its centre, axes along its edges);
+B likewise. A pose of B in A is p_AB (n, 3) [m] and R_AB (n, 3, 3). Half extents
+h_A, h_B are (n, 3) or (3,) [m]. Nothing here calls Drake, so it is usable at inference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# (8, 3) corner signs of a box, in a fixed order.
+CORNER_SIGNS = np.array(
+    [[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0) for sz in (-1.0, 1.0)]
+)
+
+
+def rotation_from_rpy(rpy) -> np.ndarray:
+    """(n, 3, 3) rotation matrices from (n, 3) roll-pitch-yaw [rad] (R = Rz(y) Ry(p) Rx(r))."""
+    rpy = np.atleast_2d(np.asarray(rpy, dtype=float))
+    r, p, y = rpy[:, 0], rpy[:, 1], rpy[:, 2]
+    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
+    R = np.empty((len(rpy), 3, 3))
+    R[:, 0, 0] = cy * cp
+    R[:, 0, 1] = cy * sp * sr - sy * cr
+    R[:, 0, 2] = cy * sp * cr + sy * sr
+    R[:, 1, 0] = sy * cp
+    R[:, 1, 1] = sy * sp * sr + cy * cr
+    R[:, 1, 2] = sy * sp * cr - cy * sr
+    R[:, 2, 0] = -sp
+    R[:, 2, 1] = cp * sr
+    R[:, 2, 2] = cp * cr
+    return R
+
+
+def rpy_from_rotation(R) -> np.ndarray:
+    """(n, 3) roll-pitch-yaw [rad] of (n, 3, 3) rotations (inverse of rotation_from_rpy)."""
+    R = np.asarray(R, dtype=float)
+    pitch = np.arcsin(np.clip(-R[:, 2, 0], -1.0, 1.0))
+    roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
+    yaw = np.arctan2(R[:, 1, 0], R[:, 0, 0])
+    return np.stack([roll, pitch, yaw], axis=1)
+
+
+def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 3, 3) rotations uniform on SO(3) (from uniform unit quaternions)."""
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    w, x, y, z = q.T
+    return np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
+        ],
+        axis=1,
+    )
+
+
+def corners_of_B_in_A(p_AB, R_AB, h_B) -> np.ndarray:
+    """(n, 8, 3) B's corners in A's frame [m]."""
+    local = CORNER_SIGNS[None] * np.asarray(h_B).reshape(-1, 1, 3)  # (n|1, 8, 3)
+    return p_AB[:, None, :] + np.einsum("nij,nkj->nki", R_AB, local)
+
+
+def sat_axes(R_AB) -> np.ndarray:
+    """(n, 15, 3) candidate separating axes in A's frame: A's 3 face normals, B's 3,
+    and the 9 edge cross products (unit length; near-parallel edge pairs give a zero
+    vector, which sat_overlap treats as uninformative)."""
+    n = len(R_AB)
+    b = np.swapaxes(R_AB, 1, 2)  # rows: B's axes in A
+    bx, by, bz = b[:, :, 0], b[:, :, 1], b[:, :, 2]  # (n, 3) components of B's 3 axes
+    zero = np.zeros_like(bx)
+    cross = np.empty((n, 3, 3, 3))  # [n, A axis i, B axis j, xyz] = e_i x b_j
+    cross[:, 0] = np.stack([zero, -bz, by], axis=-1)
+    cross[:, 1] = np.stack([bz, zero, -bx], axis=-1)
+    cross[:, 2] = np.stack([-by, bx, zero], axis=-1)
+    cross = cross.reshape(n, 9, 3)
+    norm = np.sqrt(np.einsum("nkj,nkj->nk", cross, cross))[:, :, None]
+    cross = np.where(norm > 1e-6, cross / np.maximum(norm, 1e-12), 0.0)
+    return np.concatenate([np.broadcast_to(np.eye(3), (n, 3, 3)), b, cross], axis=1)
+
+
+def sat_overlap(p_AB, R_AB, h_A, h_B):
+    """Separating-axis test of two boxes.
+
+    Returns (overlap (n, 15) [m] along each axis of sat_axes, positive = overlapping;
+    axes (n, 15, 3)). Degenerate (zero) axes get +inf overlap.
+    """
+    axes = sat_axes(R_AB)
+    h_A = np.broadcast_to(np.asarray(h_A, dtype=float), p_AB.shape)
+    h_B = np.broadcast_to(np.asarray(h_B, dtype=float), p_AB.shape)
+    rA = (np.abs(axes) @ h_A[:, :, None])[:, :, 0]  # (n, 15)
+    axes_in_B = axes @ R_AB  # axes expressed in B
+    rB = (np.abs(axes_in_B) @ h_B[:, :, None])[:, :, 0]
+    dist = np.abs((axes @ p_AB[:, :, None])[:, :, 0])
+    overlap = rA + rB - dist
+    degenerate = (axes * axes).sum(axis=2) < 0.25
+    return np.where(degenerate, np.inf, overlap), axes
+
+
+def sat_normal(p_AB, R_AB, h_A, h_B, precomputed=None):
+    """Minimum-overlap axis (the geometric contact normal, A towards B) and its overlap.
+
+    Returns (normal (n, 3) unit in A, depth (n,) [m], axis index (n,) in 0..14).
+    Face axes are preferred over edge axes within 1 mm to avoid flicker on faces.
+    """
+    overlap, axes = precomputed if precomputed is not None else sat_overlap(p_AB, R_AB, h_A, h_B)
+    bias = np.zeros(15)
+    bias[6:] = 1e-3
+    k = np.argmin(overlap + bias, axis=1)
+    idx = np.arange(len(k))
+    normal = axes[idx, k]
+    sign = np.sign(np.einsum("nj,nj->n", normal, p_AB))
+    normal = normal * np.where(sign == 0, 1.0, sign)[:, None]
+    return normal, overlap[idx, k], k
+
+
+def support_count(vertices, direction, tol) -> np.ndarray:
+    """(n,) number of vertices (n, 8, 3) whose projection on direction (n, 3) is within
+    tol (n,) [m] of the largest projection: 1 vertex, 2 edge, 4 face."""
+    proj = np.einsum("nkj,nj->nk", vertices, direction)
+    return np.sum(proj >= proj.max(axis=1, keepdims=True) - tol[:, None], axis=1)
+
+
+CONTACT_TYPES = ("vertex-face", "edge-face", "edge-edge", "face-face")
+
+
+def contact_type(p_AB, R_AB, h_A, h_B) -> np.ndarray:
+    """(n,) int index into CONTACT_TYPES, from the geometry alone.
+
+    The minimum-overlap axis n is the contact normal; the feature of A is the set of
+    its corners within tol of its support plane along n, the feature of B the set within
+    tol along -n (1 corner: vertex, 2: edge, 4: face), tol = 2 x depth + 2 mm.
+    vertex-face: a vertex of one box on a face of the other; edge-face; edge-edge
+    (which also takes the rare vertex-edge and vertex-vertex cases); face-face.
+    """
+    n_AB, depth, _ = sat_normal(p_AB, R_AB, h_A, h_B)
+    tol = 2.0 * np.maximum(depth, 0.0) + 2e-3
+    h_A = np.broadcast_to(np.asarray(h_A, dtype=float), p_AB.shape)
+    corners_A = CORNER_SIGNS[None] * h_A[:, None, :]
+    corners_B = corners_of_B_in_A(p_AB, R_AB, h_B)
+    kA = support_count(corners_A, n_AB, tol)
+    kB = support_count(corners_B, -n_AB, tol)
+    dim = lambda k: np.where(k >= 3, 2, np.where(k == 2, 1, 0))  # noqa: E731
+    dA, dB = dim(kA), dim(kB)
+    lo, hi = np.minimum(dA, dB), np.maximum(dA, dB)
+    out = np.full(len(p_AB), 2)  # edge-edge (and vertex-edge, vertex-vertex)
+    out[(hi == 2) & (lo == 0)] = 0
+    out[(hi == 2) & (lo == 1)] = 1
+    out[(hi == 2) & (lo == 2)] = 3
+    return out
+
+
+# ------------------------------------------------------------ contact patch estimate
+_MAX_VERTS = 9  # a quad clipped by 5 half-planes has at most 9 vertices
+
+
+def _clip(poly, count, axis, sign, limit):
+    """Clips convex polygons (n, V, 3) with `count` (n,) vertices to sign*x[axis] <= limit
+    (axis (n,) int, sign scalar or (n,), limit (n,)). Sutherland-Hodgman, vectorised with a fixed
+    vertex budget. Returns (poly (n, V, 3), count (n,))."""
+    n, V, _ = poly.shape
+    rows = np.arange(n)
+    idx = np.arange(V)[None, :]
+    valid = idx < count[:, None]
+    nxt = np.where(idx + 1 < count[:, None], idx + 1, 0)
+    sign = np.reshape(sign, (-1, 1))
+    s = sign * poly[rows[:, None], idx, axis[:, None]] - limit[:, None]  # (n, V)
+    s_next = s[rows[:, None], nxt]
+    v_next = poly[rows[:, None], nxt]
+    inside, inside_next = s <= 0.0, s_next <= 0.0
+    denom = np.where(s - s_next == 0.0, 1.0, s - s_next)
+    cross = poly + (s / denom)[:, :, None] * (v_next - poly)
+    cand = np.stack([poly, cross], axis=2).reshape(n, 2 * V, 3)
+    keep = np.stack([valid & inside, valid & (inside != inside_next)], axis=2).reshape(n, 2 * V)
+    pos = np.minimum(np.cumsum(keep, axis=1) - 1, V - 1)
+    out = np.zeros_like(poly)
+    r, c = np.nonzero(keep)
+    out[r, pos[r, c]] = cand[r, c]
+    return out, np.minimum(keep.sum(axis=1), V)
+
+
+_SCALAR_MAX = 4  # up to this many pairs, _face_patch clips in plain Python
+
+
+def _clip_scalar(poly, planes):
+    """Same result as repeated _clip, one polygon at a time in plain Python.
+    poly (n, V, 3) with 4 valid vertices; planes: [(axis (n,), sign scalar or (n,),
+    limit (n,))]. Returns (poly (n, V, 3), count (n,))."""
+    n, V, _ = poly.shape
+    out = np.zeros_like(poly)
+    counts = np.zeros(n, dtype=int)
+    for r in range(n):
+        verts = [tuple(v) for v in poly[r, :4].tolist()]
+        for ax, sg, lim in planes:
+            a = int(ax[r])
+            sgn = float(np.broadcast_to(sg, (n,))[r])
+            c = float(lim[r])
+            s = [sgn * v[a] - c for v in verts]
+            new = []
+            m = len(verts)
+            for i in range(m):
+                j = i + 1 if i + 1 < m else 0
+                si, sj = s[i], s[j]
+                if si <= 0.0:
+                    new.append(verts[i])
+                if (si <= 0.0) != (sj <= 0.0):
+                    d = si - sj
+                    t = si / d if d != 0.0 else si
+                    vi, vj = verts[i], verts[j]
+                    new.append((vi[0] + t * (vj[0] - vi[0]), vi[1] + t * (vj[1] - vi[1]), vi[2] + t * (vj[2] - vi[2])))
+            verts = new[:V]
+        counts[r] = len(verts)
+        if verts:
+            out[r, : len(verts)] = verts
+    return out, counts
+
+
+def _face_patch(p_AB, R_AB, h_A, h_B, axis):
+    """Contact patch of B's incident face on A's face normal to `axis` (n,) (the face
+    on B's side): the face is clipped to A's face rectangle and to the inside of A,
+    and the depth-weighted centroid is moved half the depth towards A's face (where the
+    equal-pressure surface lies). Returns (point (n, 3) in A [m], weight (n,) [m^3])."""
+    n = len(p_AB)
+    rows = np.arange(n)
+    sigma = np.where(p_AB[rows, axis] >= 0.0, 1.0, -1.0)
+    along = R_AB[rows, axis, :] * sigma[:, None]  # (n, 3) n . b_m
+    m = np.argmax(np.abs(along), axis=1)
+    s_m = np.where(along[rows, m] > 0.0, -1.0, 1.0)
+    u_ax, v_ax = (m + 1) % 3, (m + 2) % 3
+    b = np.swapaxes(R_AB, 1, 2)  # rows: B's axes in A
+    centre = p_AB + (s_m * h_B[rows, m])[:, None] * b[rows, m]
+    du = h_B[rows, u_ax][:, None] * b[rows, u_ax]
+    dv = h_B[rows, v_ax][:, None] * b[rows, v_ax]
+    poly = np.zeros((n, _MAX_VERTS, 3))
+    poly[:, :4] = np.stack([centre + du + dv, centre - du + dv, centre - du - dv, centre + du - dv], axis=1)
+    count = np.full(n, 4)
+    top = h_A[rows, axis]
+    planes = [((axis + k) % 3, sg, h_A[rows, (axis + k) % 3]) for k in (1, 2) for sg in (1.0, -1.0)]
+    planes.append((axis, sigma, top))
+    if n <= _SCALAR_MAX:  # few pairs: plain Python is faster than many tiny numpy calls
+        poly, count = _clip_scalar(poly, planes)
+    else:
+        for ax, sg, lim in planes:
+            poly, count = _clip(poly, count, ax, sg, lim)
+    depth = top[:, None] - sigma[:, None] * poly[rows[:, None], np.arange(_MAX_VERTS)[None, :], axis[:, None]]
+    centroid, weight, _ = _weighted_centroid(poly, count, np.maximum(depth, 0.0))
+    centroid[rows, axis] = 0.5 * (centroid[rows, axis] + sigma * top)
+    return centroid, weight
+
+
+def _edge_patch(p_AB, R_AB, h_A, h_B, k, normal):
+    """Midpoint of the closest points of A's and B's edges along SAT edge axis k (n,)
+    in 6..14, for contact normal (n, 3) A->B. Returns (n, 3) in A [m]."""
+    n = len(p_AB)
+    rows = np.arange(n)
+    i, j = (k - 6) // 3, (k - 6) % 3
+    sA = np.where(normal >= 0.0, 1.0, -1.0)
+    cA = sA * h_A
+    cA[rows, i] = 0.0
+    eA = np.zeros((n, 3))
+    eA[rows, i] = 1.0
+    nB = np.einsum("nj,nji->ni", normal, R_AB)  # normal in B
+    sB = np.where(nB >= 0.0, -1.0, 1.0) * h_B
+    sB[rows, j] = 0.0
+    cB = p_AB + np.einsum("nij,nj->ni", R_AB, sB)
+    eB = R_AB[rows, :, j]
+    w = cA - cB
+    b = np.einsum("ni,ni->n", eA, eB)
+    d, e = np.einsum("ni,ni->n", eA, w), np.einsum("ni,ni->n", eB, w)
+    den = np.maximum(1.0 - b * b, 1e-9)
+    s = np.clip((b * e - d) / den, -h_A[rows, i], h_A[rows, i])
+    t = np.clip((e - b * d) / den, -h_B[rows, j], h_B[rows, j])
+    return 0.5 * (cA + s[:, None] * eA + cB + t[:, None] * eB)
+
+
+def patch_estimate(p_AB, R_AB, h_A, h_B):
+    """Fixed-cost geometric estimate of the contact answer (the ODE/dBoxBox recipe,
+    with a clipped, depth-weighted patch instead of its single deepest point).
+
+    p_AB (n, 3) [m], R_AB (n, 3, 3), h_A, h_B (n, 3) half extents [m].
+    The patch comes from the reference face (the face axis, of A or of B, with least
+    overlap) clipped against the other box's incident face; this also places
+    edge-edge crossings, whose clipped patch is a small region around the crossing.
+    Returns (point (n, 3) in A [m], normal (n, 3) unit A->B (the minimum-overlap axis
+    of all 15), depth (n,) [m], axis (n,) SAT axis index, weight (n,) [m^3] patch volume,
+    overlap (n, 15) [m] the separating-axis overlaps).
+    """
+    overlap, axes = sat_overlap(p_AB, R_AB, h_A, h_B)
+    normal, depth, k = sat_normal(p_AB, R_AB, h_A, h_B, (overlap, axes))
+    face = np.argmin(overlap[:, :6], axis=1)  # reference face: least-overlap face axis
+    point = np.zeros_like(p_AB)
+    weight = np.zeros(len(p_AB))
+    on_A, on_B = face < 3, face >= 3
+    if on_A.any():
+        point[on_A], weight[on_A] = _face_patch(p_AB[on_A], R_AB[on_A], h_A[on_A], h_B[on_A], face[on_A])
+    if on_B.any():
+        R_BA = np.swapaxes(R_AB[on_B], 1, 2)
+        p_BA = -np.einsum("nij,nj->ni", R_BA, p_AB[on_B])
+        q, weight[on_B] = _face_patch(p_BA, R_BA, h_B[on_B], h_A[on_B], face[on_B] - 3)
+        point[on_B] = p_AB[on_B] + np.einsum("nij,nj->ni", R_AB[on_B], q)
+    empty = (weight <= 1e-12) & (k >= 6)  # no clipped patch: an edge-edge crossing
+    if empty.any():
+        point[empty] = _edge_patch(p_AB[empty], R_AB[empty], h_A[empty], h_B[empty], k[empty], normal[empty])
+    return point, normal, depth, k, weight, overlap
+
+
+def _weighted_centroid(poly, count, depth):
+    """Fan-triangulated integral of a linear weight `depth` (n, V) over convex polygons.
+    Returns (centroid (n, 3), integral (n,), plain vertex mean (n, 3))."""
+    n, V, _ = poly.shape
+    v0, d0 = poly[:, :1], depth[:, :1]
+    v1, v2 = poly[:, 1:-1], poly[:, 2:]
+    d1, d2 = depth[:, 1:-1], depth[:, 2:]
+    j = np.arange(1, V - 1)[None, :]
+    tri_ok = (j + 1) < count[:, None]
+    e1, e2 = v1 - v0, v2 - v0
+    c = np.stack([e1[..., 1] * e2[..., 2] - e1[..., 2] * e2[..., 1],
+                  e1[..., 2] * e2[..., 0] - e1[..., 0] * e2[..., 2],
+                  e1[..., 0] * e2[..., 1] - e1[..., 1] * e2[..., 0]], axis=-1)
+    area = 0.5 * np.sqrt(np.einsum("nvj,nvj->nv", c, c)) * tri_ok  # (n, V-2)
+    mass = area * (d0 + d1 + d2) / 3.0
+    first = area[:, :, None] / 12.0 * (
+        (2 * d0 + d1 + d2)[:, :, None] * v0 + (d0 + 2 * d1 + d2)[:, :, None] * v1
+        + (d0 + d1 + 2 * d2)[:, :, None] * v2)
+    total = mass.sum(axis=1)
+    valid = np.arange(V)[None, :] < count[:, None]
+    mean = (poly * valid[:, :, None]).sum(axis=1) / np.maximum(count, 1)[:, None]
+    centroid = np.where(total[:, None] > 1e-12, first.sum(axis=1) / np.maximum(total, 1e-300)[:, None], mean)
+    return centroid, total, mean

@@ -1,0 +1,141 @@
+"""Seeded pose distributions for a container pair (A, B) in contact.
+
+A sample here is a *proposal*: the container types, B's orientation R_AB, a base
+point and a unit direction u (both in A's frame) and a target penetration depth.
+The labeller (labels.py) moves B from the base along u, bisecting with Drake's signed
+distance until the penetration equals the target, so p_AB = base + s u.
+
+Distributions
+- "stacking": B above A as a crane lands it. Yaw uniform in [-pi, pi); roll and pitch
+  uniform in +-5 deg; 30 % of samples are near-parallel (roll, pitch within +-0.05 deg)
+  and half of those also have yaw within +-0.5 deg of a multiple of 90 deg (aligned
+  stacking, the case the paper calls worst); 20 % of the horizontal offsets are
+  within +-0.1 m of centred, the rest uniform over offsets whose footprints overlap by
+  at least 0.1 m (2-D separating-axis test). u = +z of A.
+- "general": any relative orientation (uniform on SO(3)) and any approach direction
+  (uniform on the sphere), base = A's centre. Covers vertex-face, edge-face, edge-edge
+  and face-face contact in the proportions that uniform sampling gives; 15 % of the
+  orientations are snapped to within +-1 deg of one of the 24 axis-aligned rotations
+  so that face-face and edge-face contact are well represented.
+Penetration depth is uniform in [0, 3 cm] in both.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+
+import numpy as np
+
+from learned_contact.errors import DatasetError
+from learned_contact.geometry import random_rotations, rotation_from_rpy
+from testbed.containers import CONTAINER_TYPES
+
+DISTRIBUTIONS = ("stacking", "general")
+DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
+MAX_DEPTH = 0.03  # [m]
+
+
+@dataclasses.dataclass(frozen=True)
+class Proposals:
+    """n pose proposals (see module docstring). Arrays in A's frame.
+
+    type_a, type_b (n,) int indices into `types`; R_AB (n, 3, 3); base (n, 3) [m];
+    direction (n, 3) unit; depth (n,) [m] target penetration.
+    """
+
+    types: tuple[str, ...]
+    type_a: np.ndarray
+    type_b: np.ndarray
+    R_AB: np.ndarray
+    base: np.ndarray
+    direction: np.ndarray
+    depth: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.depth)
+
+    def sizes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(size_A (n, 3), size_B (n, 3)) full extents [m]."""
+        table = np.array([CONTAINER_TYPES[t].size for t in self.types])
+        return table[self.type_a], table[self.type_b]
+
+
+def _axis_aligned_rotations() -> np.ndarray:
+    """(24, 3, 3) proper rotations that permute and flip the coordinate axes."""
+    out = []
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((-1.0, 1.0), repeat=3):
+            M = np.zeros((3, 3))
+            M[range(3), perm] = signs
+            if np.linalg.det(M) > 0:
+                out.append(M)
+    return np.array(out)
+
+
+def _footprint_overlap(x, y, yaw, half_a, half_b) -> np.ndarray:
+    """(n,) smallest 2-D separating-axis overlap [m] of A's and B's footprints
+    (rectangles of half extents half_a, half_b (n, 2)) with B at (x, y, yaw)."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    ax = np.stack([np.ones_like(c), np.zeros_like(c)], 1)
+    ay = np.stack([np.zeros_like(c), np.ones_like(c)], 1)
+    bx, by = np.stack([c, s], 1), np.stack([-s, c], 1)
+    p = np.stack([x, y], 1)
+    overlaps = []
+    for axis in (ax, ay, bx, by):
+        ra = np.abs(axis[:, 0]) * half_a[:, 0] + np.abs(axis[:, 1]) * half_a[:, 1]
+        rb = half_b[:, 0] * np.abs(np.sum(axis * bx, 1)) + half_b[:, 1] * np.abs(np.sum(axis * by, 1))
+        overlaps.append(ra + rb - np.abs(np.sum(axis * p, 1)))
+    return np.min(overlaps, axis=0)
+
+
+def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES) -> Proposals:
+    """n seeded proposals of `distribution` ("stacking" or "general") for ordered
+    type pairs drawn uniformly from `types` x `types`."""
+    if distribution not in DISTRIBUTIONS:
+        raise DatasetError(f"unknown distribution {distribution!r}; expected one of: {', '.join(DISTRIBUTIONS)}")
+    if n < 1:
+        raise DatasetError(f"need n >= 1 samples, got {n}")
+    types = tuple(types)
+    unknown = [t for t in types if t not in CONTAINER_TYPES]
+    if unknown:
+        raise DatasetError(f"unknown container types {unknown}; expected some of: {', '.join(CONTAINER_TYPES)}")
+    rng = np.random.default_rng([seed, DISTRIBUTIONS.index(distribution)])
+    type_a = rng.integers(len(types), size=n)
+    type_b = rng.integers(len(types), size=n)
+    depth = rng.uniform(0.0, MAX_DEPTH, size=n)
+    size_table = np.array([CONTAINER_TYPES[t].size for t in types])
+    half_a, half_b = 0.5 * size_table[type_a], 0.5 * size_table[type_b]
+    if distribution == "stacking":
+        rpy = np.empty((n, 3))
+        rpy[:, :2] = rng.uniform(-np.radians(5.0), np.radians(5.0), size=(n, 2))
+        rpy[:, 2] = rng.uniform(-np.pi, np.pi, size=n)
+        parallel = rng.random(n) < 0.3
+        rpy[parallel, :2] = rng.uniform(-np.radians(0.05), np.radians(0.05), size=(parallel.sum(), 2))
+        aligned = parallel & (rng.random(n) < 0.5)
+        k = rng.integers(-1, 3, size=n)
+        yaw_aligned = k * np.pi / 2 + rng.uniform(-np.radians(0.5), np.radians(0.5), size=n)
+        rpy[aligned, 2] = yaw_aligned[aligned]
+        R_AB = rotation_from_rpy(rpy)
+        xy = np.zeros((n, 2))
+        centred = rng.random(n) < 0.2
+        xy[centred] = rng.uniform(-0.1, 0.1, size=(centred.sum(), 2))
+        todo = np.flatnonzero(~centred)
+        while len(todo):  # rejection sampling of overlapping footprints
+            reach = half_a[todo, :2] + np.max(half_b[todo, :2], axis=1, keepdims=True)
+            trial = rng.uniform(-reach, reach)
+            ok = _footprint_overlap(trial[:, 0], trial[:, 1], rpy[todo, 2], half_a[todo, :2], half_b[todo, :2]) >= 0.1
+            xy[todo[ok]] = trial[ok]
+            todo = todo[~ok]
+        base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
+        direction = np.tile([0.0, 0.0, 1.0], (n, 1))
+    else:
+        R_AB = random_rotations(rng, n)
+        snap = rng.random(n) < 0.15
+        aligned = _axis_aligned_rotations()[rng.integers(24, size=n)]
+        jitter = rotation_from_rpy(rng.uniform(-np.radians(1.0), np.radians(1.0), size=(n, 3)))
+        R_AB[snap] = (aligned @ jitter)[snap]
+        direction = rng.normal(size=(n, 3))
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+        base = np.zeros((n, 3))
+    return Proposals(types, type_a, type_b, R_AB, base, direction, depth)

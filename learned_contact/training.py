@@ -1,0 +1,227 @@
+"""Training of the improved predictor and the default run that makes shipped/.
+
+    from learned_contact.training import train_default
+    train_default("learned_contact/shipped", seed=0)
+
+Needs torch (training only) and Drake (labels). Datasets are cached (cache.py), so a
+second run with the same seed skips labelling.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from learned_contact.encodings import canonicalise, features
+from learned_contact.labels import Dataset, make_dataset
+from learned_contact.mlp import NumpyMLP
+from learned_contact.paper_mlp import PaperConfig, paper_targets, predict_paper, train_paper
+from learned_contact.predictor import POINT_STEP, ContactPredictor
+from testbed.containers import CONTAINER_TYPES
+
+SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests use others
+
+
+@dataclasses.dataclass(frozen=True)
+class TrainConfig:
+    """Everything the default training run depends on (saved beside the weights)."""
+
+    seed: int = 0
+    types: tuple[str, ...] = ("1CC", "1AA", "1AAA")
+    n_general: int = 56_000  # labelled general poses for training + validation
+    n_stacking: int = 50_000  # labelled stacking poses for training + validation
+    n_val_fraction: float = 0.1  # of each improved-model training pool
+    n_test_general: int = 50_000  # the paper's external test size
+    n_test_stacking: int = 10_000
+    hidden: tuple[int, ...] = (64, 64)
+    activation: str = "silu"
+    epochs: int = 40
+    batch: int = 512
+    learning_rate: float = 3e-3  # peak of a one-cycle schedule (Adam)
+    point_scale: float = 0.02  # [m] point error scale in the loss (smooth L1 beta 0.05 m)
+    normal_scale: float = 0.02  # unit-vector error scale in the loss
+    workers: int = 2
+    torch_threads: int = 1
+    paper: PaperConfig = PaperConfig()
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _split(ds: Dataset, n_val: int):
+    n = len(ds)
+    return ds.subset(slice(0, n - n_val)), ds.subset(slice(n - n_val, n))
+
+
+def _concat(sets) -> Dataset:
+    fields = {}
+    for f in dataclasses.fields(Dataset):
+        vals = [getattr(d, f.name) for d in sets]
+        fields[f.name] = np.concatenate(vals) if isinstance(vals[0], np.ndarray) else vals[0]
+    fields["n_dropped"] = sum(d.n_dropped for d in sets)
+    fields["distribution"] = "+".join(d.distribution for d in sets)
+    return Dataset(**fields)
+
+
+def improved_inputs(ds: Dataset):
+    """(x (n, F), point_est (n, 3), normal_est (n, 3), point_c (n, 3), normal_c (n, 3)):
+    features, geometric estimate and labels, all in the canonical frame."""
+    S, p_c, R_c = canonicalise(ds.p_AB, ds.R_AB)
+    x, point_est, normal_est = features(p_c, R_c, 0.5 * ds.size_A, 0.5 * ds.size_B)
+    return x, point_est, normal_est, S * ds.cop, S * ds.normal
+
+
+def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progress: bool = True):
+    """Trains the correction MLP (Adam, one-cycle schedule, best epoch on validation).
+    Returns (NumpyMLP, info dict)."""
+    import torch
+    from tqdm import tqdm
+
+    torch.manual_seed(config.seed)
+    torch.set_num_threads(config.torch_threads)
+    x, pe, ne, pc, nc = improved_inputs(train)
+    xv, pev, nev, pcv, ncv = improved_inputs(val)
+    x_mean, x_std = x.mean(0), x.std(0) + 1e-6
+    t = lambda a: torch.tensor(a, dtype=torch.float32)  # noqa: E731
+    X, PE, NE, PC, NC = t((x - x_mean) / x_std), t(pe), t(ne), t(pc), t(nc)
+    Xv, PEv, NEv, PCv, NCv = t((xv - x_mean) / x_std), t(pev), t(nev), t(pcv), t(ncv)
+    act = {"silu": torch.nn.SiLU, "tanh": torch.nn.Tanh}[config.activation]
+    sizes = (x.shape[1], *config.hidden, 6)
+    layers = []
+    for i in range(len(sizes) - 1):
+        layers.append(torch.nn.Linear(sizes[i], sizes[i + 1]))
+        if i < len(sizes) - 2:
+            layers.append(act())
+    net = torch.nn.Sequential(*layers)
+    torch.nn.init.zeros_(net[-1].weight)  # start from the geometric estimate
+    torch.nn.init.zeros_(net[-1].bias)
+    steps = (len(X) + config.batch - 1) // config.batch
+    opt = torch.optim.Adam(net.parameters(), lr=config.learning_rate)
+    sched = torch.optim.lr_scheduler.OneCycleLR(opt, config.learning_rate, total_steps=config.epochs * steps)
+
+    def forward(xb, peb, neb):
+        y = net(xb)
+        return peb + POINT_STEP * y[:, :3], torch.nn.functional.normalize(neb + y[:, 3:], dim=1)
+
+    def loss_fn(p, n, pc_, nc_):
+        lp = torch.nn.functional.smooth_l1_loss(p, pc_, beta=0.05) / config.point_scale
+        ln = ((n - nc_) ** 2).sum(1).mean() / config.normal_scale**2
+        return lp + ln
+
+    best, best_state, history = np.inf, None, []
+    bar = tqdm(range(config.epochs), desc="improved MLP epochs", disable=not progress)
+    for _ in bar:
+        perm = torch.randperm(len(X))
+        for i in range(0, len(X), config.batch):
+            b = perm[i:i + config.batch]
+            loss = loss_fn(*forward(X[b], PE[b], NE[b]), PC[b], NC[b])
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+            sched.step()
+        with torch.no_grad():
+            v = float(loss_fn(*forward(Xv, PEv, NEv), PCv, NCv))
+        history.append(v)
+        bar.set_postfix(val=f"{v:.4g}")
+        if v < best:
+            best, best_state = v, [p.detach().clone() for p in net.parameters()]
+    weights = tuple(best_state[i].numpy().T.astype(float) for i in range(0, len(best_state), 2))
+    biases = tuple(best_state[i].numpy().astype(float) for i in range(1, len(best_state), 2))
+    mlp = NumpyMLP(weights, biases, config.activation, x_mean, x_std)
+    return mlp, {"val_loss_history": history, "best_val_loss": best}
+
+
+def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
+    """The labelled sets of the default run (cached): general/stacking pools and tests."""
+    kw = dict(types=config.types, workers=config.workers, progress=progress)
+    s_tr, s_te = 10 * config.seed + SEED_TRAIN, 10 * config.seed + SEED_TEST
+    return {
+        "general": make_dataset("general", config.n_general, s_tr, **kw),
+        "stacking": make_dataset("stacking", config.n_stacking, s_tr, **kw),
+        "general_test": make_dataset("general", config.n_test_general, s_te, **kw),
+        "stacking_test": make_dataset("stacking", config.n_test_stacking, s_te, **kw),
+    }
+
+
+def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: TrainConfig | None = None) -> dict:
+    """Reproduces the shipped model from `seed`: labels the datasets, trains the
+    improved predictor and the paper-faithful baseline, evaluates both, and writes to
+    out_dir (default learned_contact/shipped): weights.npz, paper_weights.npz,
+    config.json, metrics.json and report.md. Returns the metrics dict."""
+    from learned_contact.predictor import SHIPPED_DIR
+    from learned_contact.report import write_report
+
+    config = dataclasses.replace(config or TrainConfig(), seed=seed)
+    out_dir = Path(out_dir) if out_dir is not None else SHIPPED_DIR
+    t0 = time.perf_counter()
+    data = default_datasets(config, progress=progress)
+    t_labels = time.perf_counter() - t0
+    g_tr, g_va = _split(data["general"], int(config.n_val_fraction * len(data["general"])))
+    s_tr, s_va = _split(data["stacking"], int(config.n_val_fraction * len(data["stacking"])))
+    train, val = _concat([g_tr, s_tr]), _concat([g_va, s_va])
+    mlp, info = train_improved(train, val, config, progress=progress)
+    sizes = np.array([CONTAINER_TYPES[t].size for t in config.types])
+    meta = {"config": config.to_json(), "seed": seed, "train_info": {"best_val_loss": info["best_val_loss"]}}
+    predictor = ContactPredictor(mlp, sizes, meta)
+    t_improved = time.perf_counter() - t0 - t_labels
+    # paper-faithful baseline: general poses, sizes 10k / 6k / 50k
+    pc = config.paper
+    p_train = data["general"].subset(slice(0, pc.n_train))
+    p_val = data["general"].subset(slice(len(data["general"]) - pc.n_val, len(data["general"])))
+    p_test = data["general_test"].subset(slice(0, pc.n_test))
+    paper, paper_info = train_paper(p_train, p_val, pc, seed=seed, progress=progress)
+    t_paper = time.perf_counter() - t0 - t_labels - t_improved
+    metrics = evaluate_models(predictor, paper, {"train": (g_tr, s_tr), "validation": (g_va, s_va),
+                                                 "external": (data["general_test"], data["stacking_test"])},
+                              paper_sets={"train": p_train, "validation": p_val, "external": p_test})
+    metrics["paper_info"] = paper_info
+    metrics["dropped_without_surface"] = {k: v.n_dropped for k, v in data.items()}
+    metrics["wall_time_s"] = {"labels": t_labels, "improved": t_improved, "paper": t_paper,
+                              "total": time.perf_counter() - t0}
+    out_dir.mkdir(parents=True, exist_ok=True)
+    predictor.save(out_dir / "weights.npz")
+    np.savez(out_dir / "paper_weights.npz", **paper.to_arrays("mlp/"))
+    (out_dir / "config.json").write_text(json.dumps(config.to_json(), indent=2) + "\n")
+    write_report(metrics, out_dir)
+    return metrics
+
+
+def evaluate_models(predictor: ContactPredictor, paper: NumpyMLP, sets: dict, paper_sets: dict) -> dict:
+    """Figures of both models. sets: split -> (general Dataset, stacking Dataset) for the
+    improved model; paper_sets: split -> general Dataset for the paper model."""
+    from learned_contact.metrics import evaluate, paper_table
+
+    out = {"improved": {}, "paper": {}}
+    for split, group in sets.items():
+        for ds in group:
+            point, normal = predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
+            out["improved"][f"{split}/{ds.distribution}"] = evaluate(point, normal, ds)
+    out["drake_point_contact"] = {}
+    for ds in sets.get("external", ()):  # Drake's point-contact answer against the same labels
+        ok = np.all(np.isfinite(ds.pp_point), axis=1) & np.all(np.isfinite(ds.pp_normal), axis=1)
+        sub = ds.subset(ok)
+        out["drake_point_contact"][f"external/{ds.distribution}"] = evaluate(sub.pp_point, sub.pp_normal, sub)
+    for split, ds in paper_sets.items():
+        out["paper"][split] = {"n": len(ds), "paper_table": paper_table(predict_paper(paper, ds.p_AB, ds.R_AB), paper_targets(ds))}
+    return out
+
+
+def main(argv=None) -> None:
+    """python -m learned_contact.training [--out DIR] [--seed N] [--quiet]"""
+    import argparse
+
+    parser = argparse.ArgumentParser(description="Reproduce learned_contact's shipped model from a seed.")
+    parser.add_argument("--out", default=None, help="output folder (default learned_contact/shipped)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    args = parser.parse_args(argv)
+    metrics = train_default(args.out, seed=args.seed, progress=not args.quiet)
+    print(json.dumps(metrics["wall_time_s"]))
+
+
+if __name__ == "__main__":
+    main()
