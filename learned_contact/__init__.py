@@ -10,7 +10,7 @@ Importing this package (and predicting) never imports torch or Drake; training
 (learned_contact.training) needs torch, labelling (learned_contact.labels) needs Drake.
 """
 
-from learned_contact.errors import PredictorInputError, WeightsError
+from learned_contact.errors import PredictorDomainError, PredictorInputError, WeightsError
 from learned_contact.predictor import ContactPredictor, load_predictor
 
-__all__ = ["ContactPredictor", "PredictorInputError", "WeightsError", "load_predictor"]
+__all__ = ["ContactPredictor", "PredictorDomainError", "PredictorInputError", "WeightsError", "load_predictor"]

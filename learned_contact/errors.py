@@ -10,6 +10,11 @@ class PredictorInputError(TestbedError, ValueError):
     container sizes it was not trained for (the message lists the supported sizes)."""
 
 
+class PredictorDomainError(PredictorInputError):
+    """Poses outside the range the predictor answers (separated or deeply penetrating
+    boxes), raised by `predict(..., outside="raise")`."""
+
+
 class DatasetError(TestbedError, ValueError):
     """A dataset request that cannot be met (unknown distribution, bad size, ...)."""
 

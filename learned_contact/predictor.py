@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.encodings import canonicalise, features
-from learned_contact.errors import PredictorInputError, WeightsError
+from learned_contact.errors import PredictorDomainError, PredictorInputError, WeightsError
+from learned_contact.geometry import sat_normal
 from learned_contact.mlp import NumpyMLP
 
 SHIPPED_DIR = Path(__file__).resolve().parent / "shipped"
@@ -26,6 +27,11 @@ DEFAULT_WEIGHTS = SHIPPED_DIR / "weights.npz"
 FORMAT_VERSION = 1
 POINT_STEP = 0.5  # [m] per unit of the MLP's point outputs
 SIZE_TOLERANCE = 1e-3  # [m] a size matches a supported one within this, per axis
+# Poses answered as trained: separating-axis penetration depth within this range [m].
+# Training covers 0 to 0.03 m; 1 cm of separation and 5 cm of depth are tolerated.
+DOMAIN_DEPTH = (-0.01, 0.05)
+# Outside the domain (outside="clip") the point is clamped into A's box grown by this [m].
+CLIP_MARGIN = 0.05
 
 
 @dataclasses.dataclass(frozen=True)
@@ -40,7 +46,17 @@ class ContactPredictor:
     supported_sizes: np.ndarray
     meta: dict
 
-    def predict(self, p_AB, R_AB, *, size_A, size_B):
+    def depth(self, p_AB, R_AB, *, size_A, size_B) -> np.ndarray:
+        """(n,) separating-axis penetration depth [m] (negative = separated by that much)."""
+        p_AB, R_AB, size_A, size_B, _ = self._check(p_AB, R_AB, size_A, size_B)
+        return sat_normal(p_AB, R_AB, 0.5 * size_A, 0.5 * size_B)[1]
+
+    def in_domain(self, p_AB, R_AB, *, size_A, size_B) -> np.ndarray:
+        """(n,) bool: whether each pose lies in the range answered as trained (DOMAIN_DEPTH)."""
+        d = self.depth(p_AB, R_AB, size_A=size_A, size_B=size_B)
+        return (d >= DOMAIN_DEPTH[0]) & (d <= DOMAIN_DEPTH[1])
+
+    def predict(self, p_AB, R_AB, *, size_A, size_B, outside: str = "clip"):
         """Contact point and normal for B at (p_AB, R_AB) in A's frame.
 
         p_AB (n, 3) or (3,): B's centre in A's frame [m]; R_AB (n, 3, 3) or (3, 3):
@@ -48,16 +64,38 @@ class ContactPredictor:
         each one of the supported container sizes.
         Returns (point_A (n, 3) [m] in A's frame, normal_A (n, 3) unit, A towards B);
         (3,) each when a single pose was given. Raises PredictorInputError for bad
-        shapes, non-finite values or unsupported sizes. Poses not in contact get an
-        answer too (the model's extrapolation); check contact first.
+        shapes, non-finite values or unsupported sizes.
+
+        Poses outside the trained range (separating-axis depth outside DOMAIN_DEPTH:
+        separated boxes, deep penetration) are answered within a documented bound when
+        outside="clip" (the default): the point is clamped into A's box grown by
+        CLIP_MARGIN and the normal is a unit vector (the separating-axis normal where
+        the network's is degenerate). outside="raise" refuses them with
+        PredictorDomainError instead. Use `in_domain` to know which answers are trained.
         """
+        if outside not in ("clip", "raise"):
+            raise PredictorInputError(f"outside={outside!r}; expected 'clip' or 'raise'")
         p_AB, R_AB, size_A, size_B, single = self._check(p_AB, R_AB, size_A, size_B)
+        h_A = 0.5 * size_A
+        sat_n, depth, _ = sat_normal(p_AB, R_AB, h_A, 0.5 * size_B)
+        out = (depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])
+        if outside == "raise" and np.any(out):
+            worst = depth[out][np.argmax(np.abs(depth[out] - np.mean(DOMAIN_DEPTH)))]
+            raise PredictorDomainError(
+                f"{int(out.sum())} of {len(depth)} poses are outside the trained range: penetration depth "
+                f"{worst * 100:.1f} cm, expected {DOMAIN_DEPTH[0] * 100:g} to {DOMAIN_DEPTH[1] * 100:g} cm "
+                "(negative = separated); use outside='clip' for bounded answers")
         S, p_c, R_c = canonicalise(p_AB, R_AB)
-        x, point_est, normal_est = features(p_c, R_c, 0.5 * size_A, 0.5 * size_B)
+        x, point_est, normal_est = features(p_c, R_c, h_A, 0.5 * size_B)
         y = self.mlp(x)
         point = S * (point_est + POINT_STEP * y[:, :3])
-        normal = normal_est + y[:, 3:6]
-        normal = S * normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = S * (normal_est + y[:, 3:6])
+        length = np.linalg.norm(normal, axis=1, keepdims=True)
+        ok = np.isfinite(length) & (length > 1e-9)
+        normal = np.where(ok, normal / np.where(ok, length, 1.0), sat_n)
+        if np.any(out):
+            bound = h_A + CLIP_MARGIN
+            point = np.where(out[:, None], np.clip(point, -bound, bound), point)
         return (point[0], normal[0]) if single else (point, normal)
 
     def _check(self, p_AB, R_AB, size_A, size_B):
