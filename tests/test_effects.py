@@ -90,3 +90,15 @@ def test_import_testbed_starts_nothing_heavy():
     code = "import sys, threading, testbed\nassert 'torch' not in sys.modules\nassert threading.active_count() == 1\nprint('ok')"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
+
+
+def test_predictor_inference_is_light():
+    """Pure-numpy inference: loading and calling the shipped predictor imports neither
+    torch nor pydrake (light deployments)."""
+    code = ("import sys, numpy as np\nfrom learned_contact import load_predictor\n"
+            "p = load_predictor()\np.predict(np.array([[0, 0, 2.58]]), np.eye(3)[None], size_A=[6.058, 2.438, 2.591], "
+            "size_B=[6.058, 2.438, 2.591])\n"
+            "assert 'torch' not in sys.modules and 'pydrake' not in sys.modules, sorted(m for m in sys.modules if m in ('torch', 'pydrake'))\n"
+            "print('ok')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
