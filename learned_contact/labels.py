@@ -29,60 +29,22 @@ from learned_contact.sampling import Proposals, sample
 LABEL_VERSION = 1  # bump when labelling or sampling changes meaning
 _BISECT_TOL = 1e-6  # [m]
 
-# Per-process state: (type_a, type_b) -> _PairScene
+# Per-process state: (type_a, type_b) -> testbed.pair_plant.ContainerPair
 _SCENES: dict = {}
 
 
-@dataclasses.dataclass
-class _PairScene:
-    diagram: object
-    plant: object
-    context: object  # plant context
-    body_b: object
-    gid_a: object
-    gid_b: object
-    port: object
-
-
-def _pair_scene(type_a: str, type_b: str) -> _PairScene:
+def _pair_scene(type_a: str, type_b: str):
+    """The per-process two-container plant for (type_a, type_b) (testbed.pair_plant)."""
     key = (type_a, type_b)
-    if key in _SCENES:
-        return _SCENES[key]
-    from pydrake.math import RigidTransform
-    from pydrake.multibody.parsing import Parser
-    from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel
-    from pydrake.systems.framework import DiagramBuilder
+    if key not in _SCENES:
+        from testbed.pair_plant import ContainerPair
 
-    from testbed.containers import container_type
-    from testbed.model_loading import container_sdf
-
-    builder = DiagramBuilder()
-    plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
-    plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
-    parser = Parser(plant)
-    models = []
-    for name, code in (("A", type_a), ("B", type_b)):
-        ctype = container_type(code)
-        sdf = container_sdf(ctype, name=name, mass=ctype.tare_mass)
-        models.append(parser.AddModelsFromString(sdf, "sdf")[0])
-    plant.Finalize()
-    diagram = builder.Build()
-    context = diagram.CreateDefaultContext()
-    plant_context = plant.GetMyMutableContextFromRoot(context)
-    bodies = [plant.GetBodyByName("body", m) for m in models]
-    plant.SetFreeBodyPose(plant_context, bodies[0], RigidTransform())
-    gids = [plant.GetCollisionGeometriesForBody(b)[0] for b in bodies]
-    scene = _PairScene(diagram, plant, plant_context, bodies[1], gids[0], gids[1],
-                       plant.get_geometry_query_input_port())
-    _SCENES[key] = scene
-    return scene
+        _SCENES[key] = ContainerPair(type_a, type_b)
+    return _SCENES[key]
 
 
-def _query(scene: _PairScene, R, p):
-    from pydrake.math import RigidTransform, RotationMatrix
-
-    scene.plant.SetFreeBodyPose(scene.context, scene.body_b, RigidTransform(RotationMatrix(R), p))
-    return scene.port.Eval(scene.context)
+def _query(scene, R, p):
+    return scene.set_pose(p, R)
 
 
 def _signed_distance(scene, R, p) -> float:

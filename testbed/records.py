@@ -99,7 +99,8 @@ def to_frame(table: dict[str, np.ndarray]):
     return pd.DataFrame(flat)
 
 
-def _json_default(value):
+def json_default(value):
+    """json.dumps default= for numpy scalars and arrays."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
@@ -108,7 +109,7 @@ def _json_default(value):
 
 
 def write_json(path: Path, data: dict) -> None:
-    path.write_text(json.dumps(data, indent=2, default=_json_default, allow_nan=True) + "\n")
+    path.write_text(json.dumps(data, indent=2, default=json_default, allow_nan=True) + "\n")
 
 
 @contextlib.contextmanager

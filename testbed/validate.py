@@ -24,6 +24,7 @@ import traceback
 from pathlib import Path
 
 from testbed.errors import TestbedError
+from testbed.records import json_default as _json_default
 
 SCHEMA_VERSION = "testbed.validate/1"
 
@@ -275,16 +276,6 @@ def _execute_ray(cases, address, done) -> None:
     finally:
         if started_here:
             ray.shutdown()
-
-
-def _json_default(value):
-    import numpy as np
-
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
 # ----------------------------------------------------------------------------- entry

@@ -23,6 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from testbed.pair_plant import ContainerPair
+
 MODES = ("point", "hydro_cc", "hydro_cr")
 
 
@@ -35,62 +37,15 @@ class DrakeAnswer(NamedTuple):
     n_faces: int
 
 
-def _rigid(sdf: str) -> str:
-    """The container SDF text with B made rigid hydroelastic (modulus dropped)."""
-    import re
-
-    sdf = sdf.replace("<drake:compliant_hydroelastic />", "<drake:rigid_hydroelastic />")
-    sdf = sdf.replace("<drake:compliant_hydroelastic/>", "<drake:rigid_hydroelastic/>")
-    return re.sub(r"<drake:hydroelastic_modulus>[^<]*</drake:hydroelastic_modulus>", "", sdf)
-
-
-class DrakeBoxPair:
+class DrakeBoxPair(ContainerPair):
     """A and B of ISO types type_a, type_b (e.g. "1CC") in one plant; rigid_b makes B
     rigid_hydroelastic (for "hydro_cr")."""
 
     def __init__(self, type_a: str, type_b: str, *, rigid_b: bool = False):
-        from pydrake.math import RigidTransform
-        from pydrake.multibody.parsing import Parser
-        from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel
-        from pydrake.systems.framework import DiagramBuilder
-
-        from testbed.containers import container_type
-        from testbed.model_loading import container_sdf
-
-        builder = DiagramBuilder()
-        plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0)
-        plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
-        parser = Parser(plant)
-        models = []
-        for name, code in (("A", type_a), ("B", type_b)):
-            ctype = container_type(code)
-            sdf = container_sdf(ctype, name=name, mass=ctype.tare_mass)
-            if name == "B" and rigid_b:
-                sdf = _rigid(sdf)
-            models.append(parser.AddModelsFromString(sdf, "sdf")[0])
-        plant.Finalize()
-        self.diagram = builder.Build()
-        self._root = self.diagram.CreateDefaultContext()
-        self.plant = plant
-        self.context = plant.GetMyMutableContextFromRoot(self._root)
-        bodies = [plant.GetBodyByName("body", m) for m in models]
-        plant.SetFreeBodyPose(self.context, bodies[0], RigidTransform())
-        self.body_b = bodies[1]
-        self.gid_a = plant.GetCollisionGeometriesForBody(bodies[0])[0]
-        self.gid_b = plant.GetCollisionGeometriesForBody(bodies[1])[0]
-        self.port = plant.get_geometry_query_input_port()
-        self._RigidTransform = RigidTransform
+        super().__init__(type_a, type_b, rigid_b=rigid_b)
         from pydrake.geometry import HydroelasticContactRepresentation
-        from pydrake.math import RotationMatrix
 
-        self._RotationMatrix = RotationMatrix
         self._poly = HydroelasticContactRepresentation.kPolygon
-
-    def set_pose(self, p_AB, R_AB):
-        """Places B at p_AB (3,) [m], R_AB (3, 3) in A; returns the QueryObject."""
-        X = self._RigidTransform(self._RotationMatrix(np.asarray(R_AB, dtype=float)), np.asarray(p_AB, dtype=float))
-        self.plant.SetFreeBodyPose(self.context, self.body_b, X)
-        return self.port.Eval(self.context)
 
     def kernel(self, query, mode: str):
         """Drake's query call alone (no Python post-processing)."""
