@@ -139,9 +139,13 @@ def label_proposals(props: Proposals, *, workers: int = 2, progress: bool = True
             out.append(_label_chunk(job))
             bar.update(len(job[-1]))
     else:
+        import concurrent.futures
+
+        # A process pool that fails loudly (BrokenProcessPool) if a worker dies, where
+        # multiprocessing.Pool.imap would wait forever for the lost chunk.
         ctx = multiprocessing.get_context("spawn" if os.name == "nt" else "forkserver")
-        with ctx.Pool(workers) as pool:
-            for rows in pool.imap(_label_chunk, jobs):
+        with concurrent.futures.ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            for rows in pool.map(_label_chunk, jobs):
                 out.append(rows)
                 bar.update(len(rows))
     bar.close()
