@@ -15,7 +15,7 @@ _EXPORTS = {
     "ModelError": "testbed.errors", "ScenarioError": "testbed.errors", "SimulationError": "testbed.errors",
     "TestbedError": "testbed.errors", "UnknownChoiceError": "testbed.errors",
     "Scenario": "testbed.scenario", "load_scenario": "testbed.scenario", "shipped_scenes": "testbed.scenario",
-    "build_scene": "testbed.builder", "run_scenario": "testbed.simulate", "simulate": "testbed.simulate",
+    "build_scene": "testbed.builder", "run_scenario": "testbed.simulation", "simulate": "testbed.simulation",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -18,7 +18,7 @@ from pathlib import Path
 from testbed.effects import registry
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import load_scenario, shipped_scenes
-from testbed.simulate import run_scenario, write_run
+from testbed.simulation import run_scenario, write_run
 
 RECORDING_EFFECTS = ("contact_log", "shadow_contact")
 

@@ -64,7 +64,7 @@ def cmd_scenes(args) -> int:
 
 def cmd_run(args) -> int:
     from testbed.scenario import load_scenario, resolve_scene_path
-    from testbed.simulate import run_scenario
+    from testbed.simulation import run_scenario
 
     path = resolve_scene_path(args.scene)
     scenario = load_scenario(path, overrides=args.set or [])

@@ -116,7 +116,7 @@ def _scene_case(scene: str, model: str, duration: float) -> dict:
 
     from testbed.effects import registry
     from testbed.scenario import load_scenario
-    from testbed.simulate import run_scenario
+    from testbed.simulation import run_scenario
 
     scenario = load_scenario(scene, overrides=[f"effects.contact.model={model}", "effects.contact_log={}",
                                                 "effects.shadow_contact={}"])

@@ -582,7 +582,7 @@ def viewer_cost(scene="five_stack", *, duration: float = 2.0, overrides=(), repe
     Returns both, their ratios (with / without) and the replay size [bytes]."""
     from testbed.builder import build_scene
     from testbed.scenario import load_scenario
-    from testbed.simulate import simulate
+    from testbed.simulation import simulate
 
     wall = {"without": [], "with": []}
     cpu = {"without": [], "with": []}
@@ -622,7 +622,7 @@ def view(scene_path, *, port: int | None = DEFAULT_PORT, host: str = "localhost"
     """
     from testbed.scenario import load_scenario, resolve_scene_path
     from testbed.builder import build_scene
-    from testbed.simulate import simulate, write_run
+    from testbed.simulation import simulate, write_run
 
     stream = stream or sys.stdout
     if rate is not None and not (rate >= 0 and math.isfinite(rate)):

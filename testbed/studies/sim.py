@@ -168,7 +168,7 @@ def effect_costs(scene: str, *, effects=("contact_log", "shadow_contact", "learn
 
 
 def _wall(scenario: Scenario) -> float:
-    from testbed.simulate import simulate
+    from testbed.simulation import simulate
 
     scene = build_scene(scenario)
     result = simulate(scene)

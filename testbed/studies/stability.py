@@ -192,7 +192,7 @@ def run_matrix_entry(name: str, kw: dict) -> dict:
 
 def check(case: StressCase) -> dict:
     """Simulates a case and returns its figures and verdicts ({'stable': bool, ...})."""
-    from testbed.simulate import run_scenario
+    from testbed.simulation import run_scenario
 
     scenario = case.scenario
     out = {"case": case.name, "model": scenario.effects.contact.model,
