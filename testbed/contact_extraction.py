@@ -9,7 +9,10 @@ Columns (k contacts):
   a, b            (k,) int     body indices into the run's body_names
   kind            (k,) int     0 = hydroelastic surface, 1 = point pair
   p_W_centroid    (k, 3) [m]   hydroelastic: area-weighted surface centroid; point: contact point
-  p_W_cop         (k, 3) [m]   centre of pressure (point: the contact point)
+  p_W_cop         (k, 3) [m]   centre of pressure: the point of the contact wrench's line of
+                               action nearest the centroid (point: the contact point)
+  p_W_cop_static  (k, 3) [m]   pressure-weighted centroid of the surface (elastic pressure only,
+                               the learned labels' definition; point: the contact point)
   n_W             (k, 3)       unit normal, a -> b (hydroelastic: pressure-weighted)
   f_W             (k, 3) [N]   contact force on b (static/elastic part for shadow rows)
   fn              (k,)   [N]   f_W . n_W
@@ -26,7 +29,7 @@ from pydrake.geometry import HydroelasticContactRepresentation
 from testbed.contact_geometry import point_on_line_of_action, split_force, static_pressure, surface_face_arrays
 
 HYDRO, POINT = 0, 1
-VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "n_W", "f_W", "ft_W")
+VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "p_W_cop_static", "n_W", "f_W", "ft_W")
 SCALAR_COLUMNS = ("a", "b", "kind", "fn", "area", "phi")
 
 
@@ -40,14 +43,15 @@ def empty_columns() -> dict[str, np.ndarray]:
 
 
 def _assemble(rows: list[tuple]) -> dict[str, np.ndarray]:
-    """rows: (a, b, kind, centroid, cop, n, f, area, phi), already oriented a -> b."""
+    """rows: (a, b, kind, centroid, cop, cop_static, n, f, area, phi), already oriented a -> b."""
     if not rows:
         return empty_columns()
-    a, b, kind, centroid, cop, n, f, area, phi = (np.asarray(c) for c in zip(*rows))
+    a, b, kind, centroid, cop, cop_static, n, f, area, phi = (np.asarray(c) for c in zip(*rows))
     fn, ft = split_force(f, n)
     return {
         "a": a.astype(int), "b": b.astype(int), "kind": kind.astype(int),
         "p_W_centroid": centroid.reshape(-1, 3), "p_W_cop": cop.reshape(-1, 3),
+        "p_W_cop_static": cop_static.reshape(-1, 3),
         "n_W": n.reshape(-1, 3), "f_W": f.reshape(-1, 3), "fn": fn, "ft_W": ft.reshape(-1, 3),
         "area": area.astype(float), "phi": phi.astype(float),
     }
@@ -87,8 +91,8 @@ def from_contact_results(results, distances: dict, owner: dict) -> dict[str, np.
         f_M, tau_M = F.translational(), F.rotational()
         centroid = surface.centroid()
         cop = point_on_line_of_action(centroid, f_M, tau_M)
-        normal = static_pressure(surface_face_arrays(surface)).normal
-        rows.append((a, b, HYDRO, centroid, cop, sign * normal, sign * f_M,
+        static = static_pressure(surface_face_arrays(surface))
+        rows.append((a, b, HYDRO, centroid, cop, static.cop, sign * static.normal, sign * f_M,
                      surface.total_area(), _signed_distance(distances, id_M, id_N)))
     for i in range(results.num_point_pair_contacts()):
         info = results.point_pair_contact_info(i)
@@ -96,7 +100,7 @@ def from_contact_results(results, distances: dict, owner: dict) -> dict[str, np.
         a, b, sign = _orient(owner, pair.id_B, pair.id_A)  # nhat_BA_W: out of B into A
         point = info.contact_point()
         f_B = info.contact_force()  # on B
-        rows.append((a, b, POINT, point, point, sign * pair.nhat_BA_W, -sign * f_B, 0.0, -pair.depth))
+        rows.append((a, b, POINT, point, point, point, sign * pair.nhat_BA_W, -sign * f_B, 0.0, -pair.depth))
     return _assemble(rows)
 
 
@@ -114,7 +118,7 @@ def point_pairs_from_query(query, owner: dict, stiffness: dict) -> dict[str, np.
         k_1, k_2 = stiffness[pair.id_A], stiffness[pair.id_B]
         k = k_1 * k_2 / (k_1 + k_2)
         point = 0.5 * (pair.p_WCa + pair.p_WCb)
-        rows.append((a, b, POINT, point, point, n, k * pair.depth * n, 0.0, -pair.depth))
+        rows.append((a, b, POINT, point, point, point, n, k * pair.depth * n, 0.0, -pair.depth))
     return _assemble(rows)
 
 
@@ -126,7 +130,7 @@ def hydro_surfaces_from_query(query, owner: dict) -> dict[str, np.ndarray]:
         a, b, sign = _orient(owner, id_N, id_M)
         static = static_pressure(surface_face_arrays(surface))
         # static.force is the elastic force on M; on b it is sign * force.
-        rows.append((a, b, HYDRO, static.centroid, static.cop, sign * static.normal, sign * static.force,
+        rows.append((a, b, HYDRO, static.centroid, static.cop, static.cop, sign * static.normal, sign * static.force,
                      static.area, _signed_distance(distances, id_M, id_N)))
     return _assemble(rows)
 

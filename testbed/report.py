@@ -14,14 +14,14 @@ import os
 import platform
 from pathlib import Path
 
-from testbed.validate import SCHEMA_VERSION, _json_default, _write_atomic
+from testbed.validate import REST_WINDOW_S, SCHEMA_VERSION, _json_default, _write_atomic
 
 # Gate thresholds and their reasons (stated once, used in the report).
 # At rest a container pair overlaps ~0.25 mm per contact under its own weight (sdf/README.md);
 # 5 mm at rest means the contact is far too soft for stacking (9 contacts would sink 4.5 cm).
 MAX_RESTING_PENETRATION_M = 0.005
 FORCE_BALANCE_TOL = 0.01  # at rest, contact forces on the ground carry the total weight within 1%
-FORCE_BALANCE_WINDOW_S = 0.2  # averaged over the last 0.2 s (point contact hops between corners)
+FORCE_BALANCE_WINDOW_S = REST_WINDOW_S  # averaged over the last 0.5 s (point contact hops between corners)
 
 
 def _gate(name, passed, value, threshold, unit, description) -> dict:
@@ -44,6 +44,8 @@ def evaluate_gates(results: list[dict]) -> list[dict]:
                                s["resting_penetration_m"], MAX_RESTING_PENETRATION_M, "m",
                                f"largest penetration of any pair over the last {FORCE_BALANCE_WINDOW_S} s"))
             balance = s.get("ground_force_over_weight", float("nan"))
+            if "crane" in s.get("effects", []):
+                continue  # the ropes carry part of the load until the twistlocks release
             gates.append(_gate(f"{r['id']}: force balance", abs(balance - 1.0) <= FORCE_BALANCE_TOL, balance,
                                [1 - FORCE_BALANCE_TOL, 1 + FORCE_BALANCE_TOL], "x weight",
                                f"mean normal force on the ground over the last {FORCE_BALANCE_WINDOW_S} s / total weight"))
@@ -119,9 +121,9 @@ def _scene_rows(metrics):
 def _worst_learned(metrics):
     worst = None
     for cid, params, s in _scene_rows(metrics):
-        value = s.get("learned_point_error_max_m")
+        value = s.get("learned_vs_hydro_point_error_max_m")
         if value is not None and (worst is None or value > worst[1]):
-            worst = (cid, value, s.get("learned_point_error_worst_step"))
+            worst = (cid, value, s.get("learned_vs_hydro_point_error_worst_step"))
     return worst
 
 
@@ -134,11 +136,15 @@ def summary_markdown(metrics: dict) -> str:
     worst = _worst_learned(metrics)
     if worst:
         lines.append(f"\nPredictor worst case: {worst[0]}, point error {worst[1] * 100:.1f} cm at step {worst[2]}.")
-    lines += ["", "## Scenes", "", "| case | real-time factor | max penetration | shadow CoP disagreement max | learned point error median / p95 / max |",
-              "|---|---:|---:|---:|---:|"]
+    lines += ["", "## Scenes", "",
+              "Learned errors are against the hydroelastic centre of pressure and normal the predictor is trained for",
+              "(the driving model's, or the shadow's when a scene drives with point contact).", "",
+              "| case | real-time factor | max penetration | shadow CoP disagreement max | learned point error median / p95 / max | learned normal error max |",
+              "|---|---:|---:|---:|---:|---:|"]
     for cid, params, s in _scene_rows(metrics):
-        learned = (f"{s['learned_point_error_median_m'] * 100:.1f} / {s['learned_point_error_p95_m'] * 100:.1f} / "
-                   f"{s['learned_point_error_max_m'] * 100:.1f} cm") if "learned_point_error_median_m" in s else "n/a"
+        learned = (f"{s['learned_vs_hydro_point_error_median_m'] * 100:.1f} / {s['learned_vs_hydro_point_error_p95_m'] * 100:.1f} / "
+                   f"{s['learned_vs_hydro_point_error_max_m'] * 100:.1f} cm | {s['learned_vs_hydro_normal_error_max_deg']:.2f} deg"
+                   ) if "learned_vs_hydro_point_error_median_m" in s else "n/a | n/a"
         lines.append(f"| {cid} | {s['real_time_factor']:.2f} | {s['max_penetration_m'] * 1e3:.2f} mm | "
                      f"{s.get('shadow_cop_distance_max_m', float('nan')) * 100:.1f} cm | {learned} |")
     lines += ["", "## Simulation study (cost vs accuracy)", "",
@@ -296,12 +302,13 @@ def index_html(metrics: dict) -> str:
         parts.append(f"<h2>What each effect costs</h2><img src='data:image/png;base64,{plots['effects']}' alt='effect costs'>")
     scene_rows = [(cid, f"{s['real_time_factor']:.2f}", f"{s['max_penetration_m'] * 1e3:.2f}",
                    f"{s.get('shadow_cop_distance_max_m', float('nan')) * 100:.1f}",
-                   f"{s.get('learned_point_error_median_m', float('nan')) * 100:.1f}",
-                   f"{s.get('learned_point_error_max_m', float('nan')) * 100:.1f}",
-                   f"{s.get('learned_normal_error_max_deg', float('nan')):.2f}")
+                   f"{s.get('learned_vs_hydro_point_error_median_m', float('nan')) * 100:.1f}",
+                   f"{s.get('learned_vs_hydro_point_error_max_m', float('nan')) * 100:.1f}",
+                   f"{s.get('learned_vs_hydro_normal_error_max_deg', float('nan')):.2f}")
                   for cid, params, s in _scene_rows(metrics)]
     if scene_rows:
-        parts.append("<h2>Scenes</h2>" + _table(["case", "real-time factor", "max penetration [mm]",
+        parts.append("<h2>Scenes</h2><p>Learned errors are against the hydroelastic answer the predictor is "
+                     "trained for (the shadow's when a scene drives with point contact).</p>" + _table(["case", "real-time factor", "max penetration [mm]",
                                                  "shadow CoP disagreement max [cm]", "learned point error median [cm]",
                                                  "learned point error max [cm]", "learned normal error max [deg]"], scene_rows))
     parts.append("<h2>All gates</h2>" + _table(["gate", "passed", "value", "threshold", "what"], [

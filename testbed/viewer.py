@@ -477,8 +477,8 @@ def make_overlay_system(assembly, meshcat, painter: OverlayPainter, period: floa
         e = effects.get("shadow_contact")
         return getattr(getattr(e, "probe", None), "table", None)
 
-    truth_log = TableSource(logger_table, "p_W_cop", "n_W", tol)
-    sources = {"shadow": TableSource(shadow_table, "p_W_cop", "n_W", tol), "learned": learned_source(effects, tol)}
+    truth_log = TableSource(logger_table, "p_W_cop_static", "n_W", tol)
+    sources = {"shadow": TableSource(shadow_table, "p_W_cop_static", "n_W", tol), "learned": learned_source(effects, tol)}
     declared = {"shadow": "shadow_contact", "learned": LEARNED_EFFECT}
     crane_painter, crane_body = None, None
     crane_effect = effects.get("crane")

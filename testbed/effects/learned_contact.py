@@ -9,7 +9,9 @@ batched call per step, and records the `learned` table:
   step, time, a, b     as in the contacts table (A = body a, B = body b)
   p_W_pred (k, 3) [m]  predicted contact point in W
   n_W_pred (k, 3)      predicted unit normal, a -> b, in W
-  point_error (k,) [m] |p_W_pred - p_W_cop| against the driving model's answer
+  point_error (k,) [m] |p_W_pred - p_W_cop_static| against the driving model's answer
+                       (the pressure-weighted centroid: the definition the predictor is
+                       trained for; for point contact, the contact point)
   normal_error_deg (k,) angle between n_W_pred and the driving model's n_W
   shadow_point_error, shadow_normal_error_deg (k,)  the same against the shadow
                        model's answer on the same state (NaN where none)
@@ -27,6 +29,7 @@ from testbed.containers import CONTAINER_TYPES
 from testbed.contact_geometry import angle_between, rotation_from_quaternion
 from testbed.effects import register
 from testbed.effects.base import Effect
+from testbed.effects.contact import driving_kind
 from testbed.records import TableBuilder
 
 
@@ -79,7 +82,7 @@ class LearnedContactProbe(LeafSystem):
         n_W = np.einsum("nij,nj->ni", R_WA, normal_A)
         columns = {
             "a": a, "b": b, "p_W_pred": p_W, "n_W_pred": n_W,
-            "point_error": np.linalg.norm(p_W - rows["p_W_cop"][keep], axis=1),
+            "point_error": np.linalg.norm(p_W - rows["p_W_cop_static"][keep], axis=1),
             "normal_error_deg": np.degrees(angle_between(n_W, rows["n_W"][keep])),
         }
         columns.update(self._against_shadow(step, a, b, p_W, n_W))
@@ -94,7 +97,7 @@ class LearnedContactProbe(LeafSystem):
                     match = np.flatnonzero((chunk["a"] == ai) & (chunk["b"] == bi))
                     if match.size:
                         j = match[0]
-                        point_error[i] = np.linalg.norm(p_W[i] - chunk["p_W_cop"][j])
+                        point_error[i] = np.linalg.norm(p_W[i] - chunk["p_W_cop_static"][j])
                         normal_error[i] = np.degrees(angle_between(n_W[i], chunk["n_W"][j]))
         return {"shadow_point_error": point_error, "shadow_normal_error_deg": normal_error}
 
@@ -143,4 +146,16 @@ class LearnedContactEffect(Effect):
         tables["learned"] = self.probe.table.build(_empty())
 
     def summarize(self, tables: dict) -> dict:
-        return summarize_errors(tables["learned"])
+        """Error figures against the driving model and the shadow, plus `learned_vs_hydro_*`:
+        against the hydroelastic answer the predictor is trained for (the driving model's
+        when it is hydroelastic, the shadow's when the scene drives with point contact)."""
+        table = tables["learned"]
+        out = summarize_errors(table)
+        driving = driving_kind(self.scenario.effects.contact.model)
+        source = "" if driving == "hydroelastic" else "shadow_"
+        hydro = {"a": table["a"], "step": table["step"],
+                 "point_error": table[f"{source}point_error"], "normal_error_deg": table[f"{source}normal_error_deg"],
+                 "shadow_point_error": np.full(len(table["a"]), np.nan),
+                 "shadow_normal_error_deg": np.full(len(table["a"]), np.nan)}
+        out.update(summarize_errors(hydro, prefix="learned_vs_hydro"))
+        return out
