@@ -16,7 +16,10 @@ batched call per step, and records the `learned` table:
   shadow_point_error, shadow_normal_error_deg (k,)  the same against the shadow
                        model's answer on the same state (NaN where none)
 
-Pairs with the ground are skipped: the predictor is trained on container pairs.
+Pairs with the ground are skipped: the predictor is trained on container pairs. So
+are pairs penetrating less than MIN_PENETRATION (boxes placed exactly touching at t = 0):
+without elastic pressure the pressure-weighted centre the predictor is trained for is
+undefined there.
 """
 
 import dataclasses
@@ -31,6 +34,9 @@ from testbed.effects import register
 from testbed.effects.base import Effect
 from testbed.effects.contact import driving_kind
 from testbed.records import TableBuilder
+
+
+MIN_PENETRATION = 1e-6  # [m]
 
 
 @dataclasses.dataclass
@@ -68,7 +74,7 @@ class LearnedContactProbe(LeafSystem):
     def process(self, step: int, time: float, rows: dict) -> None:
         """Predicts for the container pairs among `rows` (one step of the contacts table)."""
         self._last_step = step
-        keep = self._is_container[rows["a"]] & self._is_container[rows["b"]]
+        keep = self._is_container[rows["a"]] & self._is_container[rows["b"]] & (rows["phi"] < -MIN_PENETRATION)
         if not np.any(keep):
             return
         a, b = rows["a"][keep], rows["b"][keep]
