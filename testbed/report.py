@@ -79,6 +79,9 @@ def build_metrics(spec: dict, results: list[dict]) -> dict:
 
 def write_report(run_dir: Path, spec: dict, results: list[dict]) -> dict:
     metrics = build_metrics(spec, results)
+    metrics["replays"] = {p.name: (f"replays/{p.name}/replay.html" if (p / "replay.html").exists()
+                                   else (p / "error.txt").read_text().strip() if (p / "error.txt").exists() else "missing")
+                          for p in sorted((run_dir / "replays").glob("*")) if p.is_dir()}
     _write_atomic(run_dir / "metrics.json", json.dumps(_strip_images(metrics), indent=1, default=_json_default))
     _write_atomic(run_dir / "summary.md", summary_markdown(metrics))
     _write_atomic(run_dir / "index.html", index_html(metrics))
@@ -136,6 +139,8 @@ def summary_markdown(metrics: dict) -> str:
     worst = _worst_learned(metrics)
     if worst:
         lines.append(f"\nPredictor worst case: {worst[0]}, point error {worst[1] * 100:.1f} cm at step {worst[2]}.")
+    for name, link in metrics.get("replays", {}).items():
+        lines.append(f"Replay of {name}: {link}")
     lines += ["", "## Scenes", "",
               "Learned errors are against the hydroelastic centre of pressure and normal the predictor is trained for",
               "(the driving model's, or the shadow's when a scene drives with point contact).", "",
@@ -276,6 +281,12 @@ def index_html(metrics: dict) -> str:
     if worst:
         parts.append(f"<p>Predictor worst case: <b>{html.escape(worst[0])}</b>, point error {worst[1] * 100:.1f} cm "
                      f"at step {worst[2]}.</p>")
+    if metrics.get("replays"):
+        items = "".join(
+            f"<li><a href='{html.escape(v)}'>{html.escape(k)}</a></li>" if v.endswith(".html")
+            else f"<li>{html.escape(k)}: no replay ({html.escape(v)})</li>" for k, v in metrics["replays"].items())
+        parts.append("<p>Meshcat replays of the worst learned cases (self-contained, open from disk; overlays: "
+                     f"truth cyan, shadow magenta, learned yellow, errors green to red):</p><ul>{items}</ul>")
     if "query" in plots:
         parts.append("<h2>What accuracy costs in time (per query)</h2>"
                      f"<img src='data:image/png;base64,{plots['query']}' alt='query Pareto chart'>")

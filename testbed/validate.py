@@ -298,8 +298,9 @@ def _execute_ray(cases, address, done) -> None:
 
 def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "local", address=None,
              resume: str | Path | None = None, out_root: str | Path = "reports", progress: bool = True,
-             cases: list[Case] | None = None) -> tuple[Path, dict]:
-    """Runs (or resumes) a suite and writes the report. Returns (run_dir, metrics)."""
+             cases: list[Case] | None = None, replays: int = 2) -> tuple[Path, dict]:
+    """Runs (or resumes) a suite and writes the report, with Meshcat replays of the
+    `replays` worst learned cases. Returns (run_dir, metrics)."""
     from testbed.report import write_report
 
     if resume is not None:
@@ -324,8 +325,38 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
         raise TestbedError(f"--workers: expected at least 1, got {workers}")
     execute(cases, run_dir, executor=executor, workers=workers, address=address, progress=progress)
     results = [json.loads(_case_path(run_dir, c.id).read_text()) for c in cases]
+    write_worst_replays(run_dir, results, replays)
     metrics = write_report(run_dir, spec, results)
     return run_dir, metrics
+
+
+def worst_learned_cases(results: list[dict], n: int) -> list[dict]:
+    """The n scene cases with the largest learned point error (against the hydroelastic answer)."""
+    scored = [r for r in results if r["kind"] == "scene" and r["status"] == "ok"
+              and r["result"].get("learned_vs_hydro_point_error_max_m") is not None]
+    scored.sort(key=lambda r: -r["result"]["learned_vs_hydro_point_error_max_m"])
+    return scored[:n]
+
+
+def write_worst_replays(run_dir: Path, results: list[dict], n: int) -> None:
+    """Re-runs the n worst learned cases in this process with the Meshcat recording and
+    writes replays/<case id>/replay.html (a replay that exists is kept, so --resume
+    does not redo it). Failures are written to replays/<case id>/error.txt."""
+    for r in worst_learned_cases(results, n):
+        out = run_dir / "replays" / r["id"]
+        if (out / "replay.html").exists():
+            continue
+        try:
+            from testbed.viewer import view
+
+            p = r["params"]
+            overrides = [f"effects.contact.model={p['model']}", "effects.contact_log={}", "effects.shadow_contact={}",
+                         "effects.learned_contact={}", "effects.meshcat={port: 0, record: true}"]
+            view(p["scene"], port=0, rate=0, overrides=overrides, duration=p["duration"], out=out, serve=False,
+                 stream=open(os.devnull, "w"))
+        except Exception as e:  # the report says why instead of losing the run
+            out.mkdir(parents=True, exist_ok=True)
+            (out / "error.txt").write_text(f"{type(e).__name__}: {e}\n")
 
 
 if __name__ == "__main__":  # python -m testbed.validate: a convenience for debugging

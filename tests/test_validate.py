@@ -47,6 +47,10 @@ def test_report_files_and_schema(smoke_run):
     html = (run_dir / "index.html").read_text()
     assert html.startswith("<!DOCTYPE html>") and "data:image/png;base64," in html and "<script src" not in html
     assert "gates pass" in (run_dir / "summary.md").read_text()
+    # Meshcat replays of the worst learned cases, linked from the report
+    assert len(on_disk["replays"]) == 2 and all(v.endswith("replay.html") for v in on_disk["replays"].values())
+    for link in on_disk["replays"].values():
+        assert (run_dir / link).stat().st_size > 100_000 and link in html
 
 
 def test_schema_rejects_a_broken_metrics_file(smoke_run):
