@@ -12,7 +12,6 @@ The ratio recorded/bare wall time is what per-step ground-truth logging costs.
 from __future__ import annotations
 
 import copy
-import json
 from pathlib import Path
 
 from testbed.effects import registry

@@ -10,7 +10,6 @@ import dataclasses
 
 import numpy as np
 from pydrake.geometry import SceneGraph
-from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import (

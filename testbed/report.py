@@ -241,9 +241,12 @@ def _plots(metrics: dict) -> dict[str, str]:
             if points:
                 ax.plot([p["ms_per_sim_second"] for p in points], [max(p["deviation_m"], 1e-9) for p in points],
                         "o-", label=f"{scene} {model} {approximation}")
-        ax.set_xscale("log"); ax.set_yscale("log")
-        ax.set_xlabel("wall time per simulated second [ms]"); ax.set_ylabel("RMS deviation from 0.1 ms reference [m]")
-        ax.grid(True, which="both", alpha=0.3); ax.legend(fontsize=7)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("wall time per simulated second [ms]")
+        ax.set_ylabel("RMS deviation from 0.1 ms reference [m]")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
         ax.set_title("Simulation cost vs accuracy (one curve per contact configuration)")
         plots["sim"] = _png(fig)
     effect_rows = [(c["result"]["scene"], r) for c in metrics["cases"].values()
@@ -252,7 +255,8 @@ def _plots(metrics: dict) -> dict[str, str]:
         fig, ax = plt.subplots(figsize=(6.5, 3.2))
         ax.bar([f"{s}\n{r['effect']}" for s, r in effect_rows], [r["ratio"] for s, r in effect_rows], color="#4a7ab5")
         ax.axhline(1.0, color="k", lw=0.8)
-        ax.set_ylabel("wall time / bare scene"); ax.set_title("What each effect costs")
+        ax.set_ylabel("wall time / bare scene")
+        ax.set_title("What each effect costs")
         ax.tick_params(axis="x", labelsize=7)
         plots["effects"] = _png(fig)
     for case in metrics["cases"].values():

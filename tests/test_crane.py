@@ -12,22 +12,22 @@ from testbed.effects.crane import Profile, CraneMove
 H = 2.591
 G = 9.81
 
-SCENE = f"""
+SCENE = """
 name: crane_probe
-duration: {{duration}}
+duration: {duration}
 containers:
 - name: load
   type: 1CC
   mass: 20000
-  X_WC: {{{{translation: [0.0, 0.0, {{z}}]}}}}
+  X_WC: {{translation: [0.0, 0.0, {z}]}}
 effects:
-  contact: {{{{model: hydroelastic}}}}
-  friction: {{{{}}}}
-  contact_log: {{{{}}}}
+  contact: {{model: hydroelastic}}
+  friction: {{}}
+  contact_log: {{}}
   crane:
     container: load
-    trolley_height: {{height}}
-    moves: {{moves}}
+    trolley_height: {height}
+    moves: {moves}
 """
 
 

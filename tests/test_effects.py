@@ -45,7 +45,6 @@ def test_every_registered_effect_is_covered_here():
 
 def _proximity_geometries(scene):
     inspector = scene.scene_graph.model_inspector()
-    from pydrake.geometry import Role
 
     return [g for g in inspector.GetAllGeometryIds() if inspector.GetProximityProperties(g) is not None], inspector
 

@@ -12,7 +12,7 @@ the measured figure; `slow` marks the longest entries (CI runs them all).
 import numpy as np
 import pytest
 
-from testbed.studies.stability import G, check, matrix_cases, resting_stack, run_matrix_entry, wobble
+from testbed.studies.stability import check, matrix_cases, resting_stack, run_matrix_entry, wobble
 
 # Why the known failures fail (each entry below carries its measured figure).
 HYDRO_EDGE = ("hydroelastic: a compliant box's pressure field (medial axis, DESIGN.md s.3) is 0 at its surface and "

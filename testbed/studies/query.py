@@ -719,7 +719,7 @@ def render_markdown(metrics: dict) -> str:
     lines = [
         "# Query study: what accuracy costs in time", "",
         f"Reference: {metrics['reference']}.",
-        f"Pose sets: " + ", ".join(f"{k} {v['n']} (dropped {v['n_dropped']})" for k, v in metrics["pose_sets"].items())
+        "Pose sets: " + ", ".join(f"{k} {v['n']} (dropped {v['n_dropped']})" for k, v in metrics["pose_sets"].items())
         + f"; seed {c['seed']} (sampling seed {c['sampling_seed']}); {c['repeats']} timed repeats per pose after a "
         f"warm-up, the fastest kept; BLAS threads while timing: {env.get('blas_threads')}; quick = {c['quick']}.",
         f"Machine: {env['platform']}, {env['cpu_count']} CPUs; Python {env['python']}; packages "

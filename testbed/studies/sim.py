@@ -17,9 +17,8 @@ import time
 
 import numpy as np
 
-from testbed.builder import build_scene, geometry_body_index
+from testbed.builder import build_scene
 from testbed.effects import registry
-from testbed.errors import SimulationError
 from testbed.scenario import Scenario, load_scenario
 
 SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
