@@ -265,6 +265,42 @@ def _plots(metrics: dict) -> dict[str, str]:
     return plots
 
 
+def markdown_html(text: str) -> str:
+    """The small Markdown subset the studies write (#-headings, pipe tables, lists,
+    paragraphs) as HTML; everything escaped. Images are left out (plots are embedded)."""
+    out, table, paragraph = [], [], []
+
+    def flush():
+        if table:
+            rows = [[c.strip() for c in line.strip().strip("|").split("|")] for line in table
+                    if not set(line.replace("|", "").strip()) <= set("-: ")]
+            out.append(_table(rows[0], rows[1:]))
+            table.clear()
+        if paragraph:
+            out.append(f"<p>{html.escape(' '.join(paragraph))}</p>")
+            paragraph.clear()
+
+    for line in text.splitlines():
+        stripped = line.strip()
+        if stripped.startswith("|"):
+            if paragraph:
+                flush()
+            table.append(stripped)
+            continue
+        flush()
+        if not stripped or stripped.startswith("!["):
+            continue
+        if stripped.startswith("#"):
+            level = min(6, len(stripped) - len(stripped.lstrip("#")) + 2)
+            out.append(f"<h{level}>{html.escape(stripped.lstrip('#').strip())}</h{level}>")
+        elif stripped.startswith("- "):
+            out.append(f"<ul><li>{html.escape(stripped[2:])}</li></ul>")
+        else:
+            paragraph.append(stripped)
+    flush()
+    return "".join(out)
+
+
 def _table(headers, rows) -> str:
     head = "".join(f"<th>{html.escape(str(h))}</th>" for h in headers)
     body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows)
@@ -296,7 +332,7 @@ def index_html(metrics: dict) -> str:
                      f"<img src='data:image/png;base64,{plots['query']}' alt='query Pareto chart'>")
     query = _query(metrics)
     if query and query.get("markdown"):
-        parts.append(f"<h3>Query study tables (paper comparison)</h3><pre>{html.escape(query['markdown'])}</pre>")
+        parts.append(f"<div class='study'>{markdown_html(query['markdown'])}</div>")
     if "sim" in plots:
         parts.append("<h2>What accuracy costs in time (whole simulations)</h2>"
                      f"<img src='data:image/png;base64,{plots['sim']}' alt='simulation study'>")

@@ -112,3 +112,12 @@ def test_bad_options_exit_2(tmp_path, capsys):
     assert "expected one of: default, full, smoke" in capsys.readouterr().err
     assert cli.main(["validate", "--resume", str(tmp_path), "--quiet"]) == 2
     assert "no suite.json" in capsys.readouterr().err
+
+
+def test_study_markdown_becomes_html_tables():
+    from testbed.report import markdown_html
+
+    out = markdown_html("# Title\n\nSome <text>\nmore.\n\n| a | b |\n|---|---:|\n| 1 | x<y |\n\n- item\n![chart](c.png)\n")
+    assert "<h3>Title</h3>" in out and "<p>Some &lt;text&gt; more.</p>" in out
+    assert "<table><tr><th>a</th><th>b</th></tr><tr><td>1</td><td>x&lt;y</td></tr></table>" in out
+    assert "<li>item</li>" in out and "c.png" not in out
