@@ -287,7 +287,8 @@ def markdown_html(text: str) -> str:
                 flush()
             table.append(stripped)
             continue
-        flush()
+        if table or not stripped or stripped.startswith(("#", "- ", "![")):
+            flush()
         if not stripped or stripped.startswith("!["):
             continue
         if stripped.startswith("#"):
