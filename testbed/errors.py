@@ -37,7 +37,8 @@ class ScenarioError(TestbedError, ValueError):
         self.field = field
         self.problem = problem
         where = f"{self.path}: {field}" if field else self.path
-        super().__init__(f"{where}: {problem}")
+        # one line always: a key or value holding a line break is shown escaped
+        super().__init__(f"{where}: {problem}".replace("\r", "\\r").replace("\n", "\\n"))
 
 
 class ModelError(TestbedError):

@@ -24,6 +24,7 @@ it (a file may repeat them, as dumped runs do, but they must agree). Everything 
 """
 
 
+import copy
 import dataclasses
 import math
 import typing
@@ -169,6 +170,21 @@ def _fields_of(schema) -> dict[str, object] | None:
     return None
 
 
+def _is_number(value) -> bool:
+    """A YAML number, or a string PyYAML left unparsed that reads as one ('1e7')."""
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, (int, float)):
+        return True
+    if isinstance(value, str):
+        try:
+            float(value)
+            return True
+        except ValueError:
+            return False
+    return False
+
+
 def _join(path: str, key) -> str:
     return f"{path}[{key}]" if isinstance(key, int) else (f"{path}.{key}" if path else str(key))
 
@@ -184,7 +200,10 @@ def _check_raw(value, schema, path: str, source) -> None:
             unknown = set(value) - set(fields)
             if unknown:
                 raise ScenarioError(source, _join(path, sorted(unknown)[0]), f"unknown field; expected one of: {', '.join(fields)}")
-            return  # Drake checks the variants itself
+            t = value.get("translation")
+            if t is not None and not (isinstance(t, list) and len(t) == 3 and all(_is_number(x) for x in t)):
+                raise ScenarioError(source, _join(path, "translation"), f"expected 3 numbers [x, y, z] in metres, got {t!r}")
+            return  # Drake checks the rotation variants itself
         if not isinstance(value, dict):
             raise ScenarioError(source, path, f"expected a mapping with fields ({', '.join(fields)}), got {type(value).__name__} {value!r}")
         for key, sub in value.items():
@@ -208,14 +227,7 @@ def _check_raw(value, schema, path: str, source) -> None:
             _check_raw(sub, item, _join(path, i), source)
         return
     if schema is float:
-        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
-        if isinstance(value, str):
-            try:
-                float(value)
-                ok = True
-            except ValueError:
-                ok = False
-        if not ok:
+        if not _is_number(value):
             raise ScenarioError(source, path, f"expected a number, got {value!r}")
     elif schema is bool and not isinstance(value, bool):
         raise ScenarioError(source, path, f"expected true or false, got {value!r}")
@@ -301,7 +313,8 @@ def _typed_from_raw(data: dict, source) -> Scenario:
     try:
         scenario = yaml_load_typed(schema=Scenario, data=clean, defaults=defaults)
     except Exception as e:  # Drake's loader: RuntimeError/ValueError with a bare message
-        raise ScenarioError(source, "", f"does not match the scene schema: {e}") from None
+        first = " ".join(str(e).strip().splitlines()[0].split()) if str(e).strip() else type(e).__name__
+        raise ScenarioError(source, "", f"does not match the scene schema: {first}") from None
     if scenario.effects.contact is not None:  # keep the dumped plant config truthful
         scenario.plant.contact_model = scenario.effects.contact.model
         scenario.plant.discrete_contact_approximation = scenario.effects.contact.approximation
@@ -322,9 +335,18 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
             raise ValueError("give a path or text")
         path = resolve_scene_path(path)
         try:
-            text = Path(path).read_text()
+            raw = Path(path).read_bytes()
         except OSError as e:
             raise ScenarioError(path, "", f"cannot read the scene file ({e.strerror})") from None
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            line = raw[: e.start].count(b"\n") + 1
+            raise ScenarioError(path, "", f"is not UTF-8 text (byte 0x{raw[e.start]:02x} at line {line}); "
+                                          "save the scene as UTF-8") from None
+        if not text.strip() or all(not ln.strip() or ln.lstrip().startswith("#") for ln in text.splitlines()):
+            raise ScenarioError(path, "", "is empty; expected scene fields such as 'containers:' "
+                                          "(the 'defaults' scene is `testbed run defaults`)")
     source = str(path) if path is not None else "<string>"
     scenario = _typed_from_raw(_parse_yaml(text, source), source)
     if overrides:
@@ -376,13 +398,60 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None
             raise ScenarioError(source, f"{where}.X_WC", f"expected a fixed (deterministic) pose: {e}") from None
         if not np.all(np.isfinite(X.translation())):
             raise ScenarioError(source, f"{where}.X_WC", "expected a finite translation")
+    _check_bounds(scenario, source)
     effects = {name: registry()[name](getattr(scenario.effects, name), scenario, source) for name in scenario.declared_effects()}
     for effect in effects.values():
         effect.check(effects)
 
 
+# Physically meaningful ranges. Values outside them are typos or unit mistakes, and they
+# would otherwise reach the solver (a 1e9 m/s velocity, a 1e30 kg mass) and fail deep
+# inside Drake or produce garbage. The ranges are wide on purpose: the stress suite puts a
+# 32.5 kg box under a 32.5 t one, the calibration a 0.37 kg cube on a table.
+BOUNDS = {
+    "duration": (0.0, 3600.0),  # [s] an hour of simulated time at most
+    "time_step": (1e-6, 0.1),  # [s]
+    "mass": (1e-3, 1e6),  # [kg] 1 g to 1000 t (33x a fully loaded 40 ft container)
+    "position": 1e3,  # [m] |p_WC| per axis; the quay slab is 400 m wide
+    "speed": 100.0,  # [m/s] |v_WC|; a 500 m free fall reaches 99 m/s
+    "spin": 100.0,  # [rad/s] |w_WC|
+}
+
+
+def _check_bounds(scenario: Scenario, source) -> None:
+    """Raises ScenarioError for values outside BOUNDS (field path, value and range named)."""
+    lo, hi = BOUNDS["duration"]
+    if not scenario.duration <= hi:
+        raise ScenarioError(source, "duration", f"{scenario.duration} s is outside the supported range (0, {hi:g}] s")
+    lo, hi = BOUNDS["time_step"]
+    if not lo <= scenario.plant.time_step <= hi:
+        raise ScenarioError(source, "plant.time_step", f"{scenario.plant.time_step} s is outside the supported range [{lo:g}, {hi:g}] s")
+    for i, c in enumerate(scenario.containers):
+        where = f"containers[{i}]"
+        lo, hi = BOUNDS["mass"]
+        if not lo <= c.total_mass() <= hi:
+            raise ScenarioError(source, f"{where}.mass", f"{c.total_mass():g} kg is outside the supported range [{lo:g}, {hi:g}] kg")
+        p = np.asarray(c.pose().translation())
+        if np.any(np.abs(p) > BOUNDS["position"]):
+            raise ScenarioError(source, f"{where}.X_WC.translation", f"{p.tolist()} m is outside the supported range |x|, |y|, |z| <= {BOUNDS['position']:g} m")
+        w, v = np.asarray(c.V_WC[:3], float), np.asarray(c.V_WC[3:], float)
+        if np.linalg.norm(v) > BOUNDS["speed"]:
+            raise ScenarioError(source, f"{where}.V_WC", f"speed {np.linalg.norm(v):g} m/s is above the supported {BOUNDS['speed']:g} m/s")
+        if np.linalg.norm(w) > BOUNDS["spin"]:
+            raise ScenarioError(source, f"{where}.V_WC", f"angular speed {np.linalg.norm(w):g} rad/s is above the supported {BOUNDS['spin']:g} rad/s")
+
+
 def dump_scenario(scenario: Scenario) -> str:
-    """The fully resolved scenario as YAML (every default written out)."""
+    """The fully resolved scenario as YAML (every default written out).
+
+    `effects.contact` is the one source of truth for the contact model: the plant's
+    copies (contact_model, discrete_contact_approximation) are written derived from it,
+    so a scenario whose effects were edited in code still loads back.
+    """
+    if scenario.effects.contact is not None:
+        scenario = copy.deepcopy(scenario)
+        scenario.plant.contact_model = scenario.effects.contact.model
+        scenario.plant.discrete_contact_approximation = scenario.effects.contact.approximation
     return yaml_dump_typed(scenario)
 
 
