@@ -28,13 +28,44 @@ class RunResult:
     out_dir: Path | None = None
 
 
-def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool = False) -> RunResult:
-    """Simulates `scene` for `duration` [s] (default: the scenario's) and collects records."""
+def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool = False,
+             stall_timeout: float | None = None) -> RunResult:
+    """Simulates `scene` for `duration` [s] (default: the scenario's) and collects records.
+
+    stall_timeout [s of wall time]: None runs here, in this process. A number runs the
+    simulation under the watchdog (testbed/watchdog.py): in a forked child process that
+    reports its simulated time after every step; if that time does not advance for
+    `stall_timeout` seconds the child is stopped and StallError (a SimulationError) names
+    the simulated time and the last system that ran. The child's effects hold the
+    records, so this process's `scene.effects` stay empty; use the returned tables.
+    """
+    if stall_timeout is None:
+        return _simulate_here(scene, duration=duration, progress=progress)
+    from testbed.watchdog import run_watched
+
+    duration = scene.scenario.duration if duration is None else duration
+    payload = run_watched(scene, lambda report: _payload(_simulate_here(scene, duration=duration, monitor=report)),
+                          stall_timeout=stall_timeout, duration=duration, progress=progress)
+    return RunResult(scenario=scene.scenario, body_names=scene.body_names, **payload)
+
+
+def _payload(result: RunResult) -> dict:
+    """The parts of a RunResult a child process sends back (all picklable)."""
+    return {"tables": result.tables, "summary": result.summary, "final_positions": result.final_positions,
+            "files": result.files}
+
+
+def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress: bool = False,
+                   monitor=None) -> RunResult:
+    """The run loop, in this process. monitor: optional callable(time [s]) run after
+    every simulator step (the watchdog's heartbeat)."""
     scenario = scene.scenario
     duration = scenario.duration if duration is None else duration
     context = scene.create_context()
     simulator = Simulator(scene.diagram, context)
     ApplySimulatorConfig(scenario.simulator, simulator)
+    if monitor is not None:
+        simulator.set_monitor(lambda c: monitor(c.get_time()))
     simulator.Initialize()
     h = scenario.plant.time_step
     chunks = max(1, min(200, int(round(duration / h))))
@@ -91,13 +122,6 @@ def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool
     )
 
 
-def final_poses(scene: BuiltScene, result: RunResult) -> dict:
-    """Container name -> final RigidTransform X_WC."""
-    context = scene.plant.CreateDefaultContext()
-    scene.plant.SetPositions(context, result.final_positions)
-    return {n: scene.plant.EvalBodyPoseInWorld(context, scene.bodies[n]) for n in scene.bodies}
-
-
 def write_run(result: RunResult, out_dir: str | Path) -> Path:
     """Writes scenario.yaml, one .npz per table and summary.json; atomic (see records.py)."""
     with atomic_directory(out_dir) as tmp:
@@ -114,10 +138,12 @@ def write_run(result: RunResult, out_dir: str | Path) -> Path:
     return result.out_dir
 
 
-def run_scenario(scenario: Scenario, *, out_dir=None, duration=None, progress=False, source="<scenario>") -> RunResult:
-    """build -> simulate -> (write). The one-call entry point used by the CLI and studies."""
+def run_scenario(scenario: Scenario, *, out_dir=None, duration=None, progress=False, source="<scenario>",
+                 stall_timeout: float | None = None) -> RunResult:
+    """build -> simulate -> (write). The one-call entry point used by the CLI and studies.
+    stall_timeout: see `simulate` (a stalled run raises before anything is written)."""
     scene = build_scene(scenario, source)
-    result = simulate(scene, duration=duration, progress=progress)
+    result = simulate(scene, duration=duration, progress=progress, stall_timeout=stall_timeout)
     if out_dir is not None:
         write_run(result, out_dir)
     return result
