@@ -20,9 +20,9 @@ from pydrake.multibody.plant import (
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
 from testbed import model_loading
-from testbed.containers import CONTAINER_TYPES
 from testbed.effects import Effect, ModelPlan, registry
 from testbed.errors import ScenarioError
+from testbed.geometry_index import geometry_body_index
 from testbed.scenario import Scenario, validate_scenario
 
 GROUND_NAME = "quay_ground"
@@ -101,14 +101,11 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
     parser.SetStrictParsing()
     bodies = {}
     if scenario.ground:
-        (ground,) = parser.AddModelsFromString(model_loading.ground_sdf(collision=plan.collision, properties=properties), "sdf")
+        ground_text = model_loading.scene_ground_sdf(scenario.ground_surface, collision=plan.collision, properties=properties)
+        (ground,) = parser.AddModelsFromString(ground_text, "sdf")
         bodies[GROUND_NAME] = plant.GetBodyByName("slab", ground)
     for spec in scenario.containers:
-        ctype = CONTAINER_TYPES[spec.type]
-        text = model_loading.container_sdf(
-            ctype, name=spec.name, mass=spec.total_mass(), p_CoCcm_C=spec.com_offset,
-            collision=plan.collision, properties=properties,
-        )
+        text = model_loading.scene_body_sdf(spec, collision=plan.collision, properties=properties)  # container or box
         (instance,) = parser.AddModelsFromString(text, "sdf")
         body = plant.GetBodyByName("body", instance)
         bodies[spec.name] = body
@@ -151,19 +148,6 @@ def _connect_forces(assembly: SceneAssembly) -> None:
     for i, port in enumerate(ports):
         assembly.builder.Connect(port, mux.get_input_port(i))
     assembly.builder.Connect(mux.get_output_port(), target)
-
-
-def geometry_body_index(scene_or_assembly, query_object) -> dict:
-    """GeometryId -> index into body_names, for every collision geometry."""
-    plant = scene_or_assembly.plant
-    inspector = query_object.inspector()
-    index_of = {body.index(): i for i, body in enumerate(scene_or_assembly.bodies.values())}
-    out = {}
-    for gid in inspector.GetAllGeometryIds():
-        body = plant.GetBodyFromFrameId(inspector.GetFrameId(gid))
-        if body is not None and body.index() in index_of:
-            out[gid] = index_of[body.index()]
-    return out
 
 
 def check_initial_overlap(scene: BuiltScene, source: object) -> None:

@@ -109,7 +109,29 @@ def json_default(value):
 
 
 def write_json(path: Path, data: dict) -> None:
-    path.write_text(json.dumps(data, indent=2, default=json_default, allow_nan=True) + "\n")
+    write_atomic(path, json.dumps(data, indent=2, default=json_default, allow_nan=True) + "\n")
+
+
+def write_atomic(path: str | Path, data: str | bytes) -> Path:
+    """Writes one file atomically: a temporary file beside `path`, then a rename.
+
+    The one atomic file write of the project (a directory of files: atomic_directory).
+    A reader sees the old file or the whole new one, never a part; on any error the
+    temporary file is removed. Parent directories are made. Returns the path.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.partial-{os.getpid()}")
+    try:
+        if isinstance(data, bytes):
+            tmp.write_bytes(data)
+        else:
+            tmp.write_text(data, encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
 
 
 @contextlib.contextmanager

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from testbed import ScenarioError, TestbedError, build_scene, load_scenario, simulate
-from testbed import viewer
-from testbed.viewer import MeshcatPortError
+from testbed import viz as viewer
+from testbed.commands.view import view
+from testbed.viz import MeshcatPortError
 
 MESHCAT_SYSTEMS = {"meshcat_visualizer", "meshcat_contact_forces", "meshcat_overlays"}
 
@@ -207,8 +208,8 @@ def test_bad_config_names_the_field(override, field):
 
 def test_view_writes_records_and_replay(tmp_path):
     out = io.StringIO()
-    result, replay = viewer.view("single_drop", port=0, rate=0, duration=0.05, out=tmp_path / "run",
-                                 overrides=["effects.shadow_contact=null"], serve=False, stream=out)
+    result, replay = view("single_drop", port=0, rate=0, duration=0.05, out=tmp_path / "run",
+                          overrides=["effects.shadow_contact=null"], serve=False, stream=out)
     text = out.getvalue()
     assert "http://localhost:" in text and "WARNING" not in text
     assert replay == tmp_path / "run" / "replay.html" and replay.stat().st_size > 100_000
@@ -218,9 +219,9 @@ def test_view_writes_records_and_replay(tmp_path):
 
 def test_view_rejects_bad_options():
     with pytest.raises(TestbedError, match="--rate"):
-        viewer.view("defaults", port=0, rate=-1, serve=False)
+        view("defaults", port=0, rate=-1, serve=False)
     with pytest.raises(TestbedError, match="--port"):
-        viewer.view("defaults", port=70000, serve=False)
+        view("defaults", port=70000, serve=False)
 
 
 def test_view_serves_until_ctrl_c(tmp_path):
@@ -231,7 +232,7 @@ def test_view_serves_until_ctrl_c(tmp_path):
 
     code = (
         "import signal; signal.signal(signal.SIGINT, signal.default_int_handler)\n"
-        "from testbed.viewer import view\n"
+        "from testbed.commands.view import view\n"
         f"view('single_drop', port=0, rate=0, duration=0.02, out={str(tmp_path / 'run')!r},"
         " overrides=['effects.shadow_contact=null', 'effects.contact_log=null'])\n"
     )

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from testbed import build_scene, load_scenario, simulate
-from testbed import viewer
+from testbed import viz as viewer
 
 CHROMIUM_FLAGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -13,9 +13,9 @@ pytest.importorskip("matplotlib", reason="pip install -e '.[study]'")
 from learned_contact.geometry import rotation_from_rpy  # noqa: E402
 from testbed.containers import CONTAINER_TYPES  # noqa: E402
 from testbed.studies import query  # noqa: E402
-from testbed.studies.drake_pair import DrakeBoxPair  # noqa: E402
-from testbed.studies.mujoco_boxes import MujocoBoxPair  # noqa: E402
-from testbed.studies.polygon_soup import PolygonSoupPair, box_triangles, crossing_segments  # noqa: E402
+from testbed.studies.query.methods.drake import DrakeBoxPair  # noqa: E402
+from testbed.studies.query.methods.mujoco import MujocoBoxPair  # noqa: E402
+from testbed.studies.query.methods.polygon_soup import PolygonSoupPair, box_triangles, crossing_segments  # noqa: E402
 
 METHOD_KEYS = {"drake_point", "drake_hydro_cc", "drake_hydro_cr", "soup_segments_N8", "mujoco", "paper_mlp_single",
                "paper_mlp_batched", "improved_single", "improved_batched"}

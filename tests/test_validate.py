@@ -11,9 +11,10 @@ from pathlib import Path
 import pytest
 
 from testbed import cli
-from testbed.validate import Case, is_timing_key, suite, validate
+from testbed.validation import Case, is_timing_key, validate
+from testbed.validation.suites import suite
 
-SCHEMA = Path(__file__).resolve().parent.parent / "testbed" / "report_schema.json"
+SCHEMA = Path(__file__).resolve().parent.parent / "testbed" / "validation" / "report_schema.json"
 
 
 def _deterministic(metrics: dict) -> dict:
@@ -67,7 +68,7 @@ def test_killed_run_resumes_to_the_same_report(smoke_run, tmp_path):
     _, reference = smoke_run
     out_root = tmp_path / "reports"
     command = [sys.executable, "-c",
-               "import sys; from testbed.validate import validate; "
+               "import sys; from testbed.validation import validate; "
                f"validate(suite_name='smoke', workers=1, out_root={str(out_root)!r}, progress=False)"]
     process = subprocess.Popen(command, start_new_session=True)
     deadline = time.time() + 240
@@ -96,7 +97,7 @@ def test_ray_executor_gives_the_same_results(smoke_run, tmp_path):
 
 
 def test_failed_gate_gives_a_nonzero_exit(tmp_path, monkeypatch, capsys):
-    from testbed import validate as validate_module
+    from testbed.validation import suites as validate_module
 
     bad = [Case("scene-missing", "scene", {"scene": "no_such_scene", "model": "point", "duration": 0.01})]
     monkeypatch.setattr(validate_module, "suite", lambda name: bad)
@@ -115,7 +116,7 @@ def test_bad_options_exit_2(tmp_path, capsys):
 
 
 def test_study_markdown_becomes_html_tables():
-    from testbed.report import markdown_html
+    from testbed.document import markdown_html
 
     out = markdown_html("# Title\n\nSome <text>\nmore.\n\n| a | b |\n|---|---:|\n| 1 | x<y |\n\n- item\n![chart](c.png)\n")
     assert "<h3>Title</h3>" in out and "<p>Some &lt;text&gt; more.</p>" in out

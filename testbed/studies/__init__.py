@@ -3,8 +3,8 @@
 - query: time per contact query and accuracy against Drake's hydroelastic centre of
   pressure for every method (Drake point and hydroelastic, polygon soup, MuJoCo, the
   paper's MLP and the improved predictor); re-creates the paper's Tables 3 and 4.
-  `from testbed.studies.query import run_query_study`; helpers: polygon_soup.py,
-  mujoco_boxes.py, drake_pair.py.
+  `from testbed.studies.query import run_query_study` (a package: pose sets, one
+  module per method family, measuring, statistics, rendering).
 - sim, stability: the simulation-level study and the stability matrix (their modules).
 
 Optional packages (python-fcl, mujoco, matplotlib) are imported only where used; a

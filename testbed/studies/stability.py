@@ -27,9 +27,9 @@ from pydrake.common.schema import Rotation, Transform
 from testbed.containers import CONTAINER_TYPES
 from testbed.effects import registry
 from testbed.errors import SimulationError
+from testbed.physics import GRAVITY
 from testbed.scenario import ContainerSpec, Scenario, load_scenario
 
-G = 9.81
 ENERGY_TOLERANCE = 1e-3  # [-] of m_total g x 1 m
 RESTING_DRIFT_PER_MINUTE = 1e-3  # [m]
 FORCE_BALANCE_TOL = 0.01  # [-]
@@ -143,7 +143,7 @@ def wobble_figures(case: StressCase, result) -> dict:
     k_one = 1e8 * ctype.footprint_area / (min(ctype.size) / 2)  # E A / (half the smallest side) [N/m]
     k = k_one / 2  # two equal compliant boxes in series
     mass = case.scenario.containers[1].total_mass()
-    return {"sigma_phi_over_h2g": float(np.std(phi) / (h * h * G)) if phi.size else float("nan"),
+    return {"sigma_phi_over_h2g": float(np.std(phi) / (h * h * GRAVITY)) if phi.size else float("nan"),
             "h_sqrt_k_over_m": h * math.sqrt(k / mass)}
 
 
@@ -210,7 +210,7 @@ def check(case: StressCase) -> dict:
         figures["energy_gain_J"] = float(np.max(energy[first:] - energy[first]))
     else:
         figures["energy_gain_J"] = 0.0
-    figures["energy_tolerance_J"] = ENERGY_TOLERANCE * masses.sum() * G * 1.0
+    figures["energy_tolerance_J"] = ENERGY_TOLERANCE * masses.sum() * GRAVITY * 1.0
     figures["max_penetration_m"] = float(max(0.0, -np.nanmin(contacts["phi"]))) if len(contacts["phi"]) else 0.0
     figures["penetration_bound_m"] = case.max_penetration
     failures = []
@@ -230,10 +230,26 @@ def check(case: StressCase) -> dict:
         support = result.body_names.index(case.support)
         late = (contacts["time"] >= contacts["time"].max() - 0.2) & (contacts["a"] == support)
         n_steps = np.unique(contacts["step"][late]).size
-        carried = masses.sum() * G
+        carried = masses.sum() * GRAVITY
         figures["support_force_over_weight"] = float(contacts["fn"][late].sum() / max(n_steps, 1) / carried)
         if abs(figures["support_force_over_weight"] - 1.0) > FORCE_BALANCE_TOL:
             failures.append(f"support force {figures['support_force_over_weight']:.4f} x weight")
     if case.name.startswith("wobble"):
         figures.update(wobble_figures(case, result))
     return {**out, **figures, "stable": not failures, "failed": "; ".join(failures)}
+
+
+def stability_matrix(rows) -> tuple[list[str], list[list[str]]]:
+    """(column labels, rows) of the matrix: case x (model, approximation, time step).
+
+    rows: run_matrix_entry results; a cell is "stable" or names the failed criterion."""
+    columns, table = [], {}
+    for r in rows:
+        column = f"{r['model']} / {r['approximation']} / {r['time_step']:g} s"
+        if column not in columns:
+            columns.append(column)
+        cell = "stable" if r["stable"] else f"UNSTABLE: {r['failed']}"
+        if r["case"].startswith("wobble"):
+            cell += f" (sigma/h2g {r.get('sigma_phi_over_h2g', float('nan')):.3g} at h sqrt(k/m) {r.get('h_sqrt_k_over_m', float('nan')):.2f})"
+        table.setdefault(r["case"], {})[column] = cell
+    return columns, [[case] + [cells.get(c, "") for c in columns] for case, cells in table.items()]

@@ -1,4 +1,4 @@
-"""Drake's answers for one container pair: point contact and hydroelastic (static CoP).
+"""Query-study methods of Drake: point contact and hydroelastic (static CoP) for one pair.
 
 A two-body MultibodyPlant (time_step 0, no simulation) holds container A at the world
 origin and B posed per query, so world quantities are A-frame quantities. Queries go
@@ -24,8 +24,14 @@ from typing import NamedTuple
 import numpy as np
 
 from testbed.pair_plant import ContainerPair
+from testbed.studies.query.methods.base import ContactMethod
 
-MODES = ("point", "hydro_cc", "hydro_cr")
+ORDER = 10
+METHODS = (  # name, label, mode, rigid B
+    ("drake_point", "Drake point contact", "point", False),
+    ("drake_hydro_cc", "Drake hydroelastic compliant-compliant", "hydro_cc", False),
+    ("drake_hydro_cr", "Drake hydroelastic compliant-rigid", "hydro_cr", True),
+)
 
 
 class DrakeAnswer(NamedTuple):
@@ -77,3 +83,30 @@ class DrakeBoxPair(ContainerPair):
     def query(self, p_AB, R_AB, mode: str) -> DrakeAnswer:
         """Pose in, contact point and normal out."""
         return self.answer(self.set_pose(p_AB, R_AB), mode)
+
+
+def build(poses, scenes, options) -> list[ContactMethod]:
+    """drake_point, drake_hydro_cc (the study's reference), drake_hydro_cr."""
+    P, R, TA, TB = poses.p_AB, poses.R_AB, poses.type_a, poses.type_b
+
+    def bind(mode, rigid):
+        def scene(i):
+            a, b = str(TA[i]), str(TB[i])
+            return scenes.get(("drake", a, b, rigid), lambda: DrakeBoxPair(a, b, rigid_b=rigid))
+
+        def single(i):
+            answer = scene(i).query(P[i], R[i], mode)
+            return answer.point, answer.normal, answer.n_faces
+
+        def prepare_kernel(i):
+            pair = scene(i)
+            query_object = pair.set_pose(P[i], R[i])
+            return lambda: pair.kernel(query_object, mode)
+
+        return single, prepare_kernel
+
+    methods = []
+    for name, label, mode, rigid in METHODS:
+        single, prepare_kernel = bind(mode, rigid)
+        methods.append(ContactMethod(name, label, "drake", single=single, prepare_kernel=prepare_kernel))
+    return methods

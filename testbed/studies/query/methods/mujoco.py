@@ -1,4 +1,4 @@
-"""MuJoCo's box-box collision for one container pair, reduced to one point and normal.
+"""Query-study method of MuJoCo: its box-box collision, reduced to one point and normal.
 
 An MjModel holds two free bodies, each with one box geom: A (geom 0) at the world
 origin, B (geom 1) posed per query, so the world frame is A's frame. Per query B's
@@ -20,6 +20,10 @@ from typing import NamedTuple
 import numpy as np
 
 from testbed.errors import OptionalDependencyError
+from testbed.studies.query.methods.base import ContactMethod, missing
+
+ORDER = 30
+LABEL = "MuJoCo box-box (mj_collision)"
 
 
 def _mujoco():
@@ -89,3 +93,26 @@ class MujocoBoxPair:
         point = w @ pos / w.sum()
         direction = w @ (flip * nrm)
         return MujocoAnswer(point, direction / np.linalg.norm(direction), k)
+
+
+def build(poses, scenes, options) -> list[ContactMethod]:
+    """mujoco, or mujoco marked unavailable when the package is missing."""
+    reason = missing("mujoco", "mujoco")
+    if reason:
+        return [ContactMethod("mujoco", LABEL, "mujoco", False, reason)]
+    P, R, SA, SB = poses.p_AB, poses.R_AB, poses.size_A, poses.size_B
+
+    def scene(i):
+        a, b = tuple(SA[i]), tuple(SB[i])
+        return scenes.get(("mujoco", a, b), lambda: MujocoBoxPair(a, b))
+
+    def single(i):
+        answer = scene(i).query(P[i], R[i])
+        return answer.point, answer.normal, answer.n_contacts
+
+    def prepare_kernel(i):
+        pair = scene(i)
+        pair.set_pose(P[i], R[i])
+        return pair.collide
+
+    return [ContactMethod("mujoco", LABEL, "mujoco", single=single, prepare_kernel=prepare_kernel)]

@@ -1,4 +1,4 @@
-"""The paper's polygon-soup baseline (RAPID) rebuilt on a maintained BVH library.
+"""Query-study methods of the paper's polygon-soup baseline (RAPID), rebuilt on python-fcl.
 
 Each box is triangulated with N divisions per edge: N^2 squares and 2N^2 triangles per
 face, 12 N^2 triangles per box (the paper's Table 3 column "Triangles/face" holds this
@@ -42,6 +42,9 @@ from typing import NamedTuple
 import numpy as np
 
 from testbed.errors import OptionalDependencyError
+from testbed.studies.query.methods.base import ContactMethod, missing
+
+ORDER = 20
 
 
 def _fcl():
@@ -289,3 +292,39 @@ class PolygonSoupPair:
             la, ha = lo_a[s:s + 256, None, :], hi_a[s:s + 256, None, :]
             count += int(np.all((la <= hi_b[None]) & (ha >= lo_b[None]), axis=2).sum())
         return count
+
+
+def build(poses, scenes, options) -> list[ContactMethod]:
+    """soup_N<N> for N in options.soup_ns (centroid estimator) and soup_segments_N8
+    (exact crossing segments); unavailable when python-fcl is missing."""
+    reason = missing("fcl", "python-fcl")
+    P, R, SA, SB = poses.p_AB, poses.R_AB, poses.size_A, poses.size_B
+
+    def bind(n, estimator):
+        def scene(i):
+            a, b = tuple(SA[i]), tuple(SB[i])
+            return scenes.get(("soup", a, b, n), lambda: PolygonSoupPair(a, b, n))
+
+        def single(i):
+            answer = scene(i).query(P[i], R[i], estimator)
+            return answer.point, answer.normal, answer.n_pairs
+
+        def prepare_kernel(i):
+            pair = scene(i)
+            pair.set_pose(P[i], R[i])
+            return pair.collide
+
+        def candidates(i):
+            return PolygonSoupPair(SA[i], SB[i], n).candidate_pairs(P[i], R[i])
+
+        return dict(single=single, prepare_kernel=prepare_kernel, candidates=candidates)
+
+    methods = []
+    for n in options.soup_ns:
+        methods.append(ContactMethod(f"soup_N{n}", f"polygon soup N={n} (python-fcl)", "polygon_soup", not reason, reason,
+                                     **bind(n, "centroids"), extra={"N": n, "triangles_per_box": 12 * n * n}))
+    segments = bind(8, "segments")
+    segments.pop("candidates")  # the candidate count is a figure of the N sweep only
+    methods.append(ContactMethod("soup_segments_N8", "polygon soup N=8, exact crossing segments", "polygon_soup",
+                                 not reason, reason, **segments, extra={"N": 8, "triangles_per_box": 768}))
+    return methods

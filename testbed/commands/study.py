@@ -1,0 +1,69 @@
+"""`testbed study sim|query|stability`: one study on its own, written to a directory."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from testbed.commands import timestamp
+from testbed.records import write_atomic
+
+NAME = "study"
+HELP = "one study on its own: sim (time step x model x approximation), query or stability"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("which", choices=["sim", "query", "stability"])
+    parser.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
+    parser.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
+    parser.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def run(args) -> int:
+    out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{timestamp()}"
+    out.mkdir(parents=True, exist_ok=True)
+    {"stability": _stability, "query": _query, "sim": _sim}[args.which](args, out)
+    print(f"study output: {out}")
+    return 0
+
+
+def _stability(args, out: Path) -> None:
+    from testbed.document import Section, table, to_markdown
+    from testbed.studies.stability import matrix_cases, run_matrix_entry, stability_matrix
+
+    grid = matrix_cases(quick=args.quick)
+    if not args.quiet:
+        from tqdm import tqdm
+
+        grid = tqdm(grid, desc="stability matrix")
+    rows = [run_matrix_entry(name, kw) for name, kw in grid]
+    write_atomic(out / "stability.json", json.dumps(rows, indent=1, default=float))
+    columns, matrix = stability_matrix(rows)
+    write_atomic(out / "stability.md", to_markdown("Stability matrix", [Section(None, [table(["case", *columns], matrix)])]))
+    for r in rows:
+        if not r["stable"]:
+            print(f"UNSTABLE {r['case']} / {r['model']} / {r['approximation']} / h={r['time_step']:g}: {r['failed']}")
+    print(f"{sum(r['stable'] for r in rows)} of {len(rows)} stable")
+
+
+def _query(args, out: Path) -> None:
+    from testbed.studies.query import run_query_study
+
+    run_query_study(out, quick=args.quick, progress=not args.quiet)
+    print((out / "query.md").read_text())
+
+
+def _sim(args, out: Path) -> None:
+    from testbed.studies.sim import effect_costs, sweep
+
+    steps = [1e-3, 3e-3, 1e-2] if args.quick else [2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2]
+    rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=["sap", "tamsi", "similar", "lagged"],
+                 time_steps=steps, reference_step=1e-4, duration=0.5 if args.quick else 1.0, progress=not args.quiet)
+    costs = effect_costs(args.scene, duration=0.3 if args.quick else 1.0)
+    write_atomic(out / "sim.json", json.dumps({"sweep": rows, "effect_costs": costs}, indent=1))
+    for r in rows:
+        print(f"{r['model']:13s} {r['approximation']:7s} h={r['time_step']:<7g} {r['ms_per_sim_second']:8.0f} ms/sim s  "
+              f"deviation {r['deviation_m'] * 1e3:9.3f} mm  {r['status']}")
+    for r in costs:
+        print(f"effect {r['effect']:16s} " + (f"{r['ratio']:.2f}x" if r.get("status") == "ok" else str(r.get("status"))))

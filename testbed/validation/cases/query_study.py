@@ -1,0 +1,40 @@
+"""Case kind `query_study`: time per contact query against accuracy (testbed.studies.query).
+
+The result holds the study's metrics only; the Pareto chart is drawn from them when the
+report is written. Section: the chart and the study's own sections."""
+
+from __future__ import annotations
+
+from testbed.document import Section
+from testbed.validation.cases import Case, CaseKind, register
+
+
+@register
+class QueryStudyCase(CaseKind):
+    name = "query_study"
+    order = 40
+    timing_keys = ("pareto", "markdown", "throughput_us_per_pair")
+
+    def cases(self, suite: str) -> list[Case]:
+        if suite in ("default", "full"):
+            return [Case("query-study", "query_study", {"quick": suite == "default", "seed": 0})]
+        return []
+
+    def run(self, quick: bool, seed: int) -> dict:
+        import tempfile
+        from pathlib import Path
+
+        from testbed.studies.query import run_query_study
+
+        with tempfile.TemporaryDirectory() as tmp:
+            return {"metrics": run_query_study(Path(tmp), quick=quick, seed=seed, progress=False)}
+
+    def sections(self, records: list[dict]) -> list[Section]:
+        if not records:
+            return []
+        from testbed.studies.query import render
+
+        metrics = records[0]["result"]["metrics"]
+        chart = render.chart_png(metrics)
+        study = render.sections(metrics, chart, level=3, order=11, chart_file=f"figures/{render.CHART_FILE}")
+        return [Section("Query study: what accuracy costs in time (per query)", [], order=10), *study]

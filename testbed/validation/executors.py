@@ -1,0 +1,105 @@
+"""Executors: run cases in worker processes (local pool) or on a Ray cluster.
+
+Each result is written to `<run>/cases/<id>.json` (atomically) as soon as it arrives,
+so a killed run loses nothing. Cases of kinds marked `main_process` run after the
+pool, in this process, alone on the machine.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import traceback
+from pathlib import Path
+
+from testbed.errors import OptionalDependencyError, TestbedError
+from testbed.records import json_default, write_atomic
+from testbed.validation.cases import Case, registry
+
+EXECUTORS = ("local", "ray")
+
+
+def run_case(case: dict) -> dict:
+    """Runs one case (Case.to_dict()) in the current process; never raises (errors
+    become results). Returns the result record (see cases/base.py)."""
+    start = time.perf_counter()
+    try:
+        result = registry()[case["kind"]].run(**case["params"])
+        status = "ok"
+    except Exception as e:  # reported per case; the suite goes on
+        result = {"error": f"{type(e).__name__}: {e}".splitlines()[0], "traceback": traceback.format_exc()}
+        status = "error"
+    return {**case, "status": status, "result": result, "wall_s": time.perf_counter() - start}
+
+
+def case_path(run_dir: Path, case_id: str) -> Path:
+    """Where a case's result record is written."""
+    return run_dir / "cases" / f"{case_id}.json"
+
+
+def execute(cases: list[Case], run_dir: Path, *, executor: str = "local", workers: int = 2,
+            address: str | None = None, progress: bool = True) -> None:
+    """Runs the cases without a result file in run_dir/cases/, writing each as it finishes."""
+    (run_dir / "cases").mkdir(parents=True, exist_ok=True)
+    pending = [c for c in cases if not case_path(run_dir, c.id).exists()]
+    if not pending:
+        return
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(cases), initial=len(cases) - len(pending), desc="validate", unit="case")
+
+    def done(result: dict) -> None:
+        write_atomic(case_path(run_dir, result["id"]), json.dumps(result, indent=1, default=json_default))
+        if bar is not None:
+            bar.set_postfix_str(result["id"])
+            bar.update(1)
+
+    if executor not in EXECUTORS:
+        raise TestbedError(f"--executor: unknown executor {executor!r}; expected one of: {', '.join(EXECUTORS)}")
+    kinds = registry()
+    here = [c for c in pending if c.kind in kinds and kinds[c.kind].main_process]
+    pooled = [c for c in pending if c not in here]
+    if executor == "local":
+        _execute_local(pooled, workers, done)
+    else:
+        _execute_ray(pooled, address, done)
+    for case in here:  # after the pool, alone on the machine: their timings are not disturbed
+        done(run_case(case.to_dict()))
+    if bar is not None:
+        bar.close()
+
+
+def _execute_local(cases, workers, done) -> None:
+    if workers <= 1:
+        for case in cases:
+            done(run_case(case.to_dict()))
+        return
+    import concurrent.futures
+    import multiprocessing
+
+    context = multiprocessing.get_context("spawn")  # no fork of a process holding Drake state
+    with concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        futures = [pool.submit(run_case, case.to_dict()) for case in cases]
+        for future in concurrent.futures.as_completed(futures):
+            done(future.result())
+
+
+def _execute_ray(cases, address, done) -> None:
+    try:
+        import ray
+    except ImportError:
+        raise OptionalDependencyError("ray", "--executor ray", "ray") from None
+    started_here = not ray.is_initialized()
+    if started_here:
+        ray.init(address=address, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
+    try:
+        remote = ray.remote(num_cpus=1)(run_case)
+        futures = [remote.remote(case.to_dict()) for case in cases]
+        while futures:
+            ready, futures = ray.wait(futures, num_returns=1)
+            done(ray.get(ready[0]))
+    finally:
+        if started_here:
+            ray.shutdown()

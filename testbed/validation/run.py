@@ -1,0 +1,63 @@
+"""`validate`: run (or resume) a suite and write its report.
+
+Run directory layout:
+  suite.json     the suite's cases and options (what --resume reads)
+  cases/*.json   one result record per case
+  replays/<id>/  Meshcat replays of the worst learned cases
+  figures/*.png  the report's charts
+  metrics.json   all results + gate verdicts (schema: testbed/validation/report_schema.json)
+  summary.md     for terminals and CI logs
+  index.html     self-contained report (charts embedded)
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from testbed.errors import TestbedError
+from testbed.records import write_atomic
+from testbed.validation import suites
+from testbed.validation.cases import Case
+from testbed.validation.executors import case_path, execute
+from testbed.validation.replays import write_worst_replays
+from testbed.validation.report import SCHEMA_VERSION, write_report
+
+
+def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "local", address=None,
+             resume: str | Path | None = None, out_root: str | Path = "reports", progress: bool = True,
+             cases: list[Case] | None = None, replays: int = 2) -> tuple[Path, dict]:
+    """Runs (or resumes) a suite and writes the report, with Meshcat replays of the
+    `replays` worst learned cases. Returns (run_dir, metrics)."""
+    if resume is not None:
+        run_dir = Path(resume)
+        spec_path = run_dir / "suite.json"
+        if not spec_path.is_file():
+            raise TestbedError(f"--resume {run_dir}: no suite.json there; expected a run directory made by testbed validate")
+        spec = json.loads(spec_path.read_text())
+        cases = [Case(**c) for c in spec["cases"]]
+    else:
+        cases = cases if cases is not None else suites.suite(suite_name)
+        run_dir = _new_run_dir(Path(out_root))
+        spec = {"schema": SCHEMA_VERSION, "suite": suite_name, "cases": [c.to_dict() for c in cases]}
+        write_atomic(run_dir / "suite.json", json.dumps(spec, indent=1))
+    if workers < 1:
+        raise TestbedError(f"--workers: expected at least 1, got {workers}")
+    execute(cases, run_dir, executor=executor, workers=workers, address=address, progress=progress)
+    records = [json.loads(case_path(run_dir, c.id).read_text()) for c in cases]
+    write_worst_replays(run_dir, records, replays)
+    metrics = write_report(run_dir, spec, records)
+    return run_dir, metrics
+
+
+def _new_run_dir(out_root: Path) -> Path:
+    """out_root/<time>, or <time>-1, -2, ... when taken; made empty."""
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    run_dir = out_root / stamp
+    suffix = 1
+    while run_dir.exists():
+        run_dir = out_root / f"{stamp}-{suffix}"
+        suffix += 1
+    run_dir.mkdir(parents=True)
+    return run_dir
