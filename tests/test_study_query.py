@@ -34,7 +34,12 @@ def test_quick_study_writes_its_three_files(quick_run):
         assert (out / name).is_file() and (out / name).stat().st_size > 0, name
     assert (out / "query_pareto.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     text = (out / "query.md").read_text()
-    assert "Table 3" in text and "Table 4" in text and "11233" in text  # the paper's own figures
+    # the markdown is rendered from the measured data: each N's Table 4 row carries the
+    # colliding triangle pairs this run counted (not the paper's constants)
+    for n in query.SOUP_N_QUICK:
+        row = next(line for line in text.splitlines() if line.startswith(f"| {n} |") and line.count("|") == 9)
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert int(cells[3]) == metrics["polygon_soup"][str(n)]["max_colliding_pairs"], row
     assert json.loads((out / "query.json").read_text()) == json.loads(json.dumps(metrics))
 
 
@@ -58,15 +63,13 @@ def test_json_has_the_documented_keys(quick_run):
             assert {"mean", "median", "p99", "max", "n", "n_missing"} <= set(v["all"][stat]), (name, stat)
         assert v["all"]["time_us"]["mean"] > 0
         assert set(v["by_set"]) == set(query.POSE_SETS)
-    # the reference against itself
-    ref = m["methods"]["drake_hydro_cc"]["all"]
-    assert ref["point_error_m"]["max"] < 1e-9 and ref["normal_error_deg"]["max"] < 1e-6
+    # (the reference is checked against an independent method, the exact polygon-soup
+    # rim, in test_polygon_soup_point_converges_to_hydroelastic_cop_face_on_face)
     for n in query.SOUP_N_QUICK:
         row = m["polygon_soup"][str(n)]
         assert row["triangles_per_box"] == 12 * n * n
         assert row["max_colliding_pairs"] > 0 and row["max_candidate_pairs"] >= row["max_colliding_pairs"]
     assert m["pareto"]["point_front"] and m["pareto"]["normal_front"]
-    assert m["paper"]["table4"]["22"] == {"max_tests": 35411, "worst_ms": 36.77}
 
 
 def test_box_triangulation_counts_and_normals():

@@ -8,6 +8,8 @@ pool, in this process, alone on the machine.
 from __future__ import annotations
 
 import json
+import os
+import sys
 import time
 import traceback
 from pathlib import Path
@@ -37,11 +39,42 @@ def case_path(run_dir: Path, case_id: str) -> Path:
     return run_dir / "cases" / f"{case_id}.json"
 
 
+RECORD_KEYS = ("id", "kind", "params", "status", "result", "wall_s")
+
+
+def _as_json(value):
+    """value as it reads back from a JSON file (tuples become lists)."""
+    return json.loads(json.dumps(value, default=json_default))
+
+
+def load_record(run_dir: Path, case: Case) -> dict | None:
+    """The case's saved result record, or None when there is none to use. A file that
+    is not a complete record of this case (truncated, corrupt, another case's) is
+    reported on stderr and removed, so the case is recomputed."""
+    path = case_path(run_dir, case.id)
+    if not path.exists():
+        return None
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+        problem = None
+        if not isinstance(record, dict) or any(k not in record for k in RECORD_KEYS):
+            problem = f"expected a result record with keys {', '.join(RECORD_KEYS)}"
+        elif record["id"] != case.id or record["kind"] != case.kind or record["params"] != _as_json(case.params):
+            problem = "it holds another case's result"
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        problem = f"not valid JSON ({e.__class__.__name__}: {str(e).splitlines()[0][:80]})"
+    if problem is None:
+        return record
+    print(f"testbed: note: {path}: {problem}; recomputing case {case.id}", file=sys.stderr)
+    path.unlink()
+    return None
+
+
 def execute(cases: list[Case], run_dir: Path, *, executor: str = "local", workers: int = 2,
             address: str | None = None, progress: bool = True) -> None:
     """Runs the cases without a result file in run_dir/cases/, writing each as it finishes."""
     (run_dir / "cases").mkdir(parents=True, exist_ok=True)
-    pending = [c for c in cases if not case_path(run_dir, c.id).exists()]
+    pending = [c for c in cases if load_record(run_dir, c) is None]
     if not pending:
         return
     bar = None
@@ -86,6 +119,21 @@ def _execute_local(cases, workers, done) -> None:
             done(future.result())
 
 
+class RayConnectionError(TestbedError):
+    """`--executor ray --address A` could not reach (or was refused by) the cluster."""
+
+    def __init__(self, address, cause: Exception):
+        first = str(cause).strip().splitlines()[0] if str(cause).strip() else type(cause).__name__
+        token = os.environ.get("RAY_AUTH_MODE", "") == "token"
+        hint = ("the cluster refused this process's token: check RAY_AUTH_TOKEN / ~/.ray/auth_token against the head's"
+                if token else
+                "if the cluster was started with token authentication (Ray >= 2.60 `ray start --head` with "
+                "RAY_AUTH_MODE=token), set RAY_AUTH_MODE=token here too, with the head's token in ~/.ray/auth_token, "
+                "RAY_AUTH_TOKEN_PATH or RAY_AUTH_TOKEN")
+        super().__init__(f"--address {address}: cannot connect to the Ray cluster ({type(cause).__name__}: {first}); "
+                         f"check host:port against what `ray start --head` printed (default port 6379); {hint}")
+
+
 def _execute_ray(cases, address, done) -> None:
     try:
         import ray
@@ -93,7 +141,10 @@ def _execute_ray(cases, address, done) -> None:
         raise OptionalDependencyError("ray", "--executor ray", "ray") from None
     started_here = not ray.is_initialized()
     if started_here:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
+        try:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False, ignore_reinit_error=True)
+        except (ConnectionError, RuntimeError, ValueError) as e:
+            raise RayConnectionError(address, e) from None
     try:
         remote = ray.remote(num_cpus=1)(run_case)
         futures = [remote.remote(case.to_dict()) for case in cases]

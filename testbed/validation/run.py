@@ -13,6 +13,7 @@ Run directory layout:
 from __future__ import annotations
 
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -20,7 +21,7 @@ from testbed.errors import TestbedError
 from testbed.records import write_atomic
 from testbed.validation import suites
 from testbed.validation.cases import Case
-from testbed.validation.executors import case_path, execute
+from testbed.validation.executors import RayConnectionError, execute, load_record
 from testbed.validation.replays import write_worst_replays
 from testbed.validation.report import SCHEMA_VERSION, write_report
 
@@ -44,8 +45,13 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
         write_atomic(run_dir / "suite.json", json.dumps(spec, indent=1))
     if workers < 1:
         raise TestbedError(f"--workers: expected at least 1, got {workers}")
-    execute(cases, run_dir, executor=executor, workers=workers, address=address, progress=progress)
-    records = [json.loads(case_path(run_dir, c.id).read_text()) for c in cases]
+    try:
+        execute(cases, run_dir, executor=executor, workers=workers, address=address, progress=progress)
+    except RayConnectionError:
+        if resume is None:  # nothing ran: leave no half-made run directory behind
+            shutil.rmtree(run_dir, ignore_errors=True)
+        raise
+    records = [load_record(run_dir, c) for c in cases]
     write_worst_replays(run_dir, records, replays)
     metrics = write_report(run_dir, spec, records)
     return run_dir, metrics

@@ -21,6 +21,7 @@ MAX_RESTING_PENETRATION_M = 0.005
 FORCE_BALANCE_TOL = 0.01  # at rest, contact forces on the ground carry the total weight within 1%
 
 MODELS = ("hydroelastic", "point")
+SMOKE_DURATION_S = 0.8
 DEFAULT_SCENES = ("two_stack", "five_stack", "bridge", "single_drop", "windy_stack", "nine_mixed_stack",
                   "crane_misaligned", "crane_hard_landing")
 
@@ -46,7 +47,10 @@ class SceneCase(CaseKind):
 
     def cases(self, suite: str) -> list[Case]:
         if suite == "smoke":
-            return scene_cases(["two_stack", "bridge"], MODELS, 0.05)
+            # long enough for the rest gates to mean something: the last REST_WINDOW_S of a
+            # 0.8 s run starts after the first settling transient (measured: force balance
+            # within 0.2% for both scenes and models at 0.6 s; at 0.05 s the bridge fails)
+            return scene_cases(["two_stack", "bridge"], MODELS, SMOKE_DURATION_S)
         if suite == "default":
             return scene_cases(DEFAULT_SCENES, MODELS, None)
         if suite == "full":
