@@ -1,0 +1,85 @@
+"""Files of a twin run: time series (.npz), divergence plot (PNG), ghost replay (HTML)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+
+def write_series(path, runs: dict) -> None:
+    """trajectories.npz: per run kind K ('truth', 'learned', 'point'): K_time (n,) [s],
+    K_p_WB (n, m, 3) [m], K_q_WB (n, m, 4) (w, x, y, z), K_V_WB (n, m, 6), K_energy (n,) [J];
+    names (m,) the free containers; position_error (n, m) [m] learned vs truth."""
+    arrays = {"names": np.array(runs["truth"].names)}
+    for kind, t in runs.items():
+        arrays.update({f"{kind}_time": t.time, f"{kind}_p_WB": t.p_WB, f"{kind}_q_WB": t.q_WB,
+                       f"{kind}_V_WB": t.V_WB, f"{kind}_energy": t.energy})
+    n = len(runs["learned"].time)
+    arrays["position_error"] = np.linalg.norm(runs["learned"].p_WB - runs["truth"].p_WB[:n], axis=2)
+    np.savez_compressed(path, **arrays)
+
+
+def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
+    """Position error [mm] of each container and energy change [J] of both runs over time."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(learned.time)
+    err = np.linalg.norm(learned.p_WB - truth.p_WB[:n], axis=2) * 1e3
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for k, name in enumerate(learned.names):
+        ax1.plot(learned.time, err[:, k], label=name)
+    ax1.set_ylabel("position error [mm]")
+    ax1.set_title(f"{scene}: learned ({predictor}) vs Drake")
+    ax1.legend(fontsize="small")
+    ax2.plot(truth.time, truth.energy - truth.energy[0], label="Drake")
+    ax2.plot(learned.time, learned.energy - learned.energy[0], label="learned")
+    ax2.set_ylabel("E(t) - E(0) [J]")
+    ax2.set_xlabel("time [s]")
+    ax2.legend(fontsize="small")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02) -> None:
+    """A self-contained Meshcat replay: learned boxes solid, the truth as translucent ghosts."""
+    from pydrake.geometry import Box, Rgba
+    from pydrake.math import RigidTransform
+    from pydrake.common.eigen_geometry import Quaternion
+
+    from testbed.viz.replay import finish_recording
+    from testbed.viz.server import start_meshcat
+
+    meshcat = start_meshcat(port=0)
+    specs = [c for c in scenario.containers if not c.fixed]
+    fixed = [c for c in scenario.containers if c.fixed]
+    for c in specs + fixed:
+        size = c.container_type().size
+        r, g, b, _ = c.container_type().rgba
+        meshcat.SetObject(f"/learned/{c.name}", Box(*size), Rgba(r, g, b, 1.0))
+        if not c.fixed:
+            meshcat.SetObject(f"/truth_ghost/{c.name}", Box(*size), Rgba(0.6, 0.9, 1.0, 0.35))
+        else:
+            meshcat.SetTransform(f"/learned/{c.name}", c.pose())
+    if scenario.ground:
+        meshcat.SetObject("/quay", Box(60.0, 60.0, 0.2), Rgba(0.5, 0.5, 0.5, 1.0))
+        meshcat.SetTransform("/quay", RigidTransform([0.0, 0.0, -0.1]))
+    meshcat.StartRecording(frames_per_second=1.0 / frame_period, set_visualizations_while_recording=False)
+    step = max(1, int(round(frame_period / max(truth.time[1] - truth.time[0], 1e-9)))) if len(truth.time) > 1 else 1
+    for k in range(0, len(truth.time), step):
+        t = float(truth.time[k])
+        for i, c in enumerate(specs):
+            meshcat.SetTransform(f"/truth_ghost/{c.name}", _pose(Quaternion, RigidTransform, truth, k, i), t)
+            if k < len(learned.time):
+                meshcat.SetTransform(f"/learned/{c.name}", _pose(Quaternion, RigidTransform, learned, k, i), t)
+    html = finish_recording(meshcat)
+    with open(path, "w") as f:
+        f.write(html)
+
+
+def _pose(Quaternion, RigidTransform, traj, k, i):
+    q = traj.q_WB[k, i]
+    return RigidTransform(Quaternion(q / np.linalg.norm(q)), traj.p_WB[k, i])

@@ -1,0 +1,142 @@
+"""Figures of a twin run: how far the learned trajectory strays from the truth's.
+
+Inputs are runs.Trajectory records on the same time grid (the learned run may end
+early when it failed). Positions are of the body origins (the containers' geometric
+centres) [m]; angles are the rotation between the two runs' orientations [deg].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.contact_geometry import rotation_from_quaternion
+
+# The learned run diverged (blew up) when it failed, went non-finite, sank one container
+# this far into another or the quay [m] (the shipped scenes' deepest Drake contact is a
+# 40 mm edge landing; 0.1 m of steel box in steel box is a blow-up, not a soft contact),
+# or created energy: E(t) - E(0) above the truth's by more than this fraction of the
+# containers' potential energy above the quay at t = 0.
+DIVERGED_PENETRATION_M = 0.1
+DIVERGED_ENERGY_FRACTION = 0.01
+# A physically plausible run may still leave the truth's path (a box tipping off a stack):
+# `departed` flags a container this far from the truth's at some time [m].
+DEPARTED_M = 0.5
+
+
+def angle_between_rotations(q1, q2) -> np.ndarray:
+    """(...,) angle [deg] of the rotation taking unit quaternions q1 to q2 (w, x, y, z)."""
+    dot = np.abs(np.sum(q1 * q2, axis=-1))
+    return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
+
+
+def with_fixed(traj, containers):
+    """traj's free containers plus the welded ones (constant poses), in scene order:
+    (p_WB (n, m_all, 3) [m], q_WB (n, m_all, 4))."""
+    n = len(traj.time)
+    p, q, k = np.zeros((n, len(containers), 3)), np.zeros((n, len(containers), 4)), 0
+    for i, c in enumerate(containers):
+        if c.fixed:
+            X = c.pose()
+            p[:, i], q[:, i] = X.translation(), X.rotation().ToQuaternion().wxyz()
+        else:
+            p[:, i], q[:, i] = traj.p_WB[:, k], traj.q_WB[:, k]
+            k += 1
+    return p, q
+
+
+def penetrations(traj, containers, predictor) -> tuple[np.ndarray, np.ndarray]:
+    """((n,) deepest container-container penetration [m] by separating-axis depth,
+    (n,) deepest container-quay penetration [m] (lowest corner below z = 0)) per record.
+    containers: all the scene's ContainerSpecs (welded ones at their fixed poses)."""
+    import dataclasses
+
+    if len(containers) != traj.p_WB.shape[1]:
+        p_all, q_all = with_fixed(traj, containers)
+        traj = dataclasses.replace(traj, p_WB=p_all, q_WB=q_all)
+    n, m = traj.p_WB.shape[:2]
+    finite = np.all(np.isfinite(traj.p_WB), axis=(1, 2)) & np.all(np.isfinite(traj.q_WB), axis=(1, 2))
+    if not np.all(finite):  # a failed run's last record: infinitely deep
+        deep, ground = penetrations(_subset(traj, finite), containers, predictor)
+        out = np.full((2, n), np.inf)
+        out[0, finite], out[1, finite] = deep, ground
+        return out[0], out[1]
+    R = rotation_from_quaternion(traj.q_WB.reshape(-1, 4)).reshape(n, m, 3, 3)
+    sizes = np.array([c.container_type().size for c in containers]).reshape(-1, 3)  # (m, 3) [m]
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])  # (8, 3)
+    corners = traj.p_WB[:, :, None, :] + np.einsum("nmij,mkj->nmki", R, 0.5 * sizes[:, None, :] * signs)
+    ground = np.maximum(0.0, -corners[..., 2].min(axis=(1, 2)))
+    pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]
+    deepest = np.zeros(n)
+    if pairs and predictor is not None:
+        ia, ib = np.array(pairs).T
+        R_AW = np.swapaxes(R[:, ia], -1, -2)  # (n, P, 3, 3)
+        p_AB = np.einsum("npij,npj->npi", R_AW, traj.p_WB[:, ib] - traj.p_WB[:, ia]).reshape(-1, 3)
+        R_AB = (R_AW @ R[:, ib]).reshape(-1, 3, 3)
+        size_A, size_B = np.tile(sizes[ia], (n, 1)), np.tile(sizes[ib], (n, 1))
+        depth = np.asarray(predictor.depth(p_AB, R_AB, size_A=size_A, size_B=size_B)).reshape(n, len(pairs))
+        deepest = np.maximum(0.0, depth.max(axis=1))
+    return deepest, ground
+
+
+def _subset(traj, rows):
+    import dataclasses
+
+    return dataclasses.replace(traj, time=traj.time[rows], p_WB=traj.p_WB[rows], q_WB=traj.q_WB[rows],
+                               V_WB=traj.V_WB[rows], energy=traj.energy[rows], potential=traj.potential[rows])
+
+
+def drift_rate(traj) -> float:
+    """[m per simulated minute] the fastest steady motion of a container over the second half
+    of the run: the largest |slope| of a least-squares line through its position there (a
+    fit, so that a jitter of a tenth of a millimetre is not read as a drift)."""
+    n = len(traj.time)
+    if n < 4 or traj.time[-1] <= 0:
+        return float("nan")
+    t = traj.time[n // 2:]
+    p = traj.p_WB[n // 2:].reshape(len(t), -1)  # (k, 3 m)
+    tc = t - t.mean()
+    if not np.any(tc):
+        return float("nan")
+    slope = (tc @ (p - p.mean(axis=0))) / (tc @ tc)  # (3 m,) [m/s]
+    speed = np.linalg.norm(slope.reshape(-1, 3), axis=1)
+    return float(60.0 * speed.max())
+
+
+def compare_figures(truth, learned, containers, predictor) -> dict:
+    """The compare.json figures of a learned run against the truth (same record times);
+    containers: all the scene's ContainerSpecs."""
+    n = len(learned.time)
+    err = np.linalg.norm(learned.p_WB - truth.p_WB[:n], axis=2)  # (n, m) [m]
+    angle = angle_between_rotations(learned.q_WB, truth.q_WB[:n])  # (n, m) [deg]
+    depth, ground = penetrations(learned, containers, predictor)
+    depth_truth, ground_truth = penetrations(truth, containers, predictor)
+    gain = learned.energy - learned.energy[0]
+    finite = bool(np.all(np.isfinite(learned.p_WB)) and np.all(np.isfinite(learned.q_WB)))
+    completed = not learned.error and n == len(truth.time)
+    figures = {
+        "position_error_max_m": float(np.nanmax(err)),
+        "final_position_error_max_m": float(err[-1].max()),
+        "final_angle_error_max_deg": float(angle[-1].max()),
+        "angle_error_max_deg": float(np.nanmax(angle)),
+        "max_penetration_m": float(max(depth.max(), ground.max())),
+        "max_container_penetration_m": float(depth.max()),
+        "max_ground_penetration_m": float(ground.max()),
+        "max_container_penetration_truth_m": float(depth_truth.max()),
+        "energy_gain_max_J": float(np.nanmax(gain)),
+        "energy_gain_max_truth_J": float(np.max(truth.energy - truth.energy[0])),
+        "potential_drop_max_J": float(np.max(truth.potential[0] - truth.potential)),
+        "drift_m_per_min_learned": drift_rate(learned),
+        "drift_m_per_min_truth": drift_rate(truth),
+        "simulated_s_learned": float(learned.simulated_s),
+        "learned_error": learned.error,
+    }
+    excess = figures["energy_gain_max_J"] - figures["energy_gain_max_truth_J"]
+    figures["energy_excess_J"] = float(excess)
+    figures["diverged"] = bool(not finite or not completed
+                               or not figures["max_penetration_m"] <= DIVERGED_PENETRATION_M
+                               or not excess <= DIVERGED_ENERGY_FRACTION * abs(truth.potential[0]))
+    figures["departed"] = bool(not figures["position_error_max_m"] <= DEPARTED_M)
+    worst = np.unravel_index(np.nanargmax(err), err.shape)
+    figures["worst_container"] = learned.names[worst[1]] if learned.names else int(worst[1])
+    figures["worst_time_s"] = float(learned.time[worst[0]])
+    return figures

@@ -1,0 +1,107 @@
+"""Variants of one scene (truth, learned, point) and their recorded trajectories.
+
+A variant keeps the scene's physics effects (contact, friction, wind, crane) and drops
+the recorders and viewers (contact_log, shadow_contact, learned_contact, meshcat), so
+its wall time is the cost of the dynamics alone. Every `record_every` steps the run
+records, for the m free containers: p_WB (m, 3) [m], q_WB (m, 4) (w, x, y, z),
+V_WB (m, 6) [rad/s, m/s] (angular, linear; of the body origin, in W) and the
+mechanical energy (kinetic + gravity potential) [J].
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import time
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+
+from testbed.builder import build_scene
+
+RECORDERS = ("contact_log", "shadow_contact", "learned_contact", "meshcat")
+
+
+def variant(scenario, kind: str, predictor: str | None = None):
+    """A copy of `scenario` for kind 'truth' (the scene's own contact model), 'point'
+    (Drake point contact) or 'learned' (learned_dynamics with `predictor`; None: the
+    scene's own learned_dynamics config if it declares one, else "improved")."""
+    from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+
+    out = copy.deepcopy(scenario)
+    for name in RECORDERS + ("learned_dynamics",):
+        if hasattr(out.effects, name):
+            setattr(out.effects, name, None)
+    if kind == "point":
+        out.effects.contact = dataclasses.replace(out.effects.contact, model="point")
+        out.plant.contact_model = "point"
+    elif kind == "learned":
+        given = scenario.effects.learned_dynamics
+        config = dataclasses.replace(given) if given is not None else LearnedDynamicsConfig()
+        out.effects.learned_dynamics = dataclasses.replace(config, predictor=predictor or config.predictor,
+                                                           shadow_truth=False)
+    elif kind != "truth":
+        raise ValueError(f"unknown variant {kind!r}")
+    return out
+
+
+@dataclasses.dataclass
+class Trajectory:
+    """Recorded states of one run (n records, m free containers; shapes in the module doc)."""
+
+    time: np.ndarray  # (n,) [s]
+    p_WB: np.ndarray  # (n, m, 3)
+    q_WB: np.ndarray  # (n, m, 4)
+    V_WB: np.ndarray  # (n, m, 6)
+    energy: np.ndarray  # (n,) [J]
+    potential: np.ndarray  # (n,) [J]
+    wall_s: float  # wall time of the simulation alone
+    simulated_s: float
+    error: str = ""  # the simulator's error when it failed, else ""
+    names: tuple = ()
+
+
+def run_variant(scenario, duration: float, record_every: int, source="<scenario>", scene=None) -> Trajectory:
+    """Simulates a built `scene` (or builds `scenario`) for `duration` [s], recording every
+    `record_every` plant steps. A failing run (the simulator or the predictor raising, or
+    a non-finite state) ends early with `error` set; the records up to then are kept."""
+    scene = scene or build_scene(scenario, source)
+    plant = scene.plant
+    context = scene.create_context()
+    plant_context = plant.GetMyContextFromRoot(context)
+    simulator = Simulator(scene.diagram, context)
+    ApplySimulatorConfig(scene.scenario.simulator, simulator)
+    simulator.Initialize()
+    bodies = [scene.bodies[n] for n in scene.free_names]
+    h = plant.time_step()
+    n_rec = int(round(duration / h)) // record_every
+    rows, wall, error = [], 0.0, ""
+
+    def record():
+        poses = [plant.EvalBodyPoseInWorld(plant_context, b) for b in bodies]
+        vels = [plant.EvalBodySpatialVelocityInWorld(plant_context, b) for b in bodies]
+        rows.append((context.get_time(), [X.translation() for X in poses],
+                     [X.rotation().ToQuaternion().wxyz() for X in poses],
+                     [np.concatenate([V.rotational(), V.translational()]) for V in vels],
+                     plant.CalcKineticEnergy(plant_context) + plant.CalcPotentialEnergy(plant_context),
+                     plant.CalcPotentialEnergy(plant_context)))
+
+    record()
+    for k in range(1, n_rec + 1):
+        start = time.perf_counter()
+        try:
+            simulator.AdvanceTo(k * record_every * h)
+        except Exception as e:  # noqa: BLE001 - Drake's solver or the predictor (NaN poses): the run failed
+            wall += time.perf_counter() - start
+            error = f"{type(e).__name__}: {str(e).strip().splitlines()[0]}"
+            break
+        wall += time.perf_counter() - start
+        record()
+        if not np.all(np.isfinite(rows[-1][1])):
+            error = "non-finite state"
+            break
+    t, p, q, V, E, PE = zip(*rows)
+    m = len(bodies)
+    return Trajectory(np.array(t), np.array(p).reshape(-1, m, 3), np.array(q).reshape(-1, m, 4),
+                      np.array(V).reshape(-1, m, 6), np.array(E), np.array(PE), wall, t[-1], error,
+                      tuple(scene.free_names))

@@ -1,0 +1,91 @@
+"""`compare_scene`: the twin run of one scene and its output directory;
+`compare_predictors`: several predictors against one truth run (what validate needs)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from testbed.compare.metrics import compare_figures
+from testbed.compare.runs import run_variant, variant
+from testbed.records import atomic_directory, write_json
+
+RECORD_PERIOD = 0.01  # [s] default spacing of the recorded states
+
+
+def _load(scene):
+    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
+
+    if isinstance(scene, Scenario):
+        return scene, "<scenario>"
+    path = resolve_scene_path(scene)
+    return load_scenario(path), path
+
+
+def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: float | None = None,
+                  with_point: bool = True, replay: bool = True, record_every: int | None = None) -> dict:
+    """Runs `scene` (a name, path or Scenario) with Drake's contact (the scene's model),
+    with the learned closed loop (`predictor`: "improved", "paper" or a weights path; None:
+    the scene's learned_dynamics.predictor if it declares the effect, else "improved") and,
+    when `with_point`, with Drake's point contact (for its wall time), from the same
+    initial state; writes out_dir/compare.json, trajectories.npz, divergence.png and
+    (when `replay`) replay.html atomically, and returns the compare.json figures.
+    Raises ScenarioError (bad scene or predictor) before anything is simulated or written.
+    """
+    (figures,) = compare_predictors(scene, [predictor], out_dirs=[out_dir], duration=duration,
+                                    with_point=with_point, replay=replay, record_every=record_every)
+    return figures
+
+
+def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = None, with_point: bool = True,
+                       replay: bool = True, record_every: int | None = None) -> list[dict]:
+    """compare_scene for each of `predictors`, sharing one truth run (and one point run):
+    out_dirs[i] receives predictors[i]'s files. Every scene is built (and so every
+    predictor loaded) before anything runs. Returns the figures, in order."""
+    from testbed.builder import build_scene
+    from testbed.errors import TestbedError
+
+    scenario, source = _load(scene)
+    duration = scenario.duration if duration is None else float(duration)
+    if not duration > 0:
+        raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
+    h = scenario.plant.time_step
+    every = record_every or max(1, int(round(RECORD_PERIOD / h)))
+    learned = [build_scene(variant(scenario, "learned", p), source) for p in predictors]
+    truth_scene = build_scene(variant(scenario, "truth"), source)
+    point_scene = build_scene(variant(scenario, "point"), source) if with_point else None
+    truth = run_variant(None, duration, every, scene=truth_scene)
+    point = run_variant(None, duration, every, scene=point_scene) if with_point else None
+    out = []
+    for scene_l, out_dir in zip(learned, out_dirs):
+        effect = scene_l.effects["learned_dynamics"]
+        run = run_variant(None, duration, every, scene=scene_l)
+        runs = {"truth": truth, "learned": run, **({"point": point} if point else {})}
+        figures = {"scene": scenario.name, "predictor": effect.config.predictor,
+                   "predictor_kind": getattr(effect.predictor, "kind", effect.config.predictor),
+                   "duration_s": duration, "time_step_s": h, "record_period_s": every * h}
+        figures.update(compare_figures(truth, run, scenario.containers, effect.predictor))
+        for kind, traj in runs.items():
+            figures[f"wall_per_sim_s_{kind}"] = traj.wall_s / max(traj.simulated_s, 1e-12)
+        figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_learned"]
+        if point:
+            figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures["wall_per_sim_s_learned"]
+        figures["stability_max"] = max((max(r["normal"], r["tilt"]) for r in effect.stability), default=0.0)
+        figures["learned_dynamics_config"] = dataclasses.asdict(effect.config)
+        figures["stability"] = [{**r, "pair": list(r["pair"])} for r in effect.stability]
+        _write(out_dir, figures, runs, scenario, replay)
+        figures["out_dir"] = str(Path(out_dir))
+        out.append(figures)
+    return out
+
+
+def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool) -> None:
+    from testbed.compare import artifacts
+
+    with atomic_directory(out_dir) as tmp:
+        artifacts.write_series(tmp / "trajectories.npz", runs)
+        artifacts.plot_divergence(tmp / "divergence.png", runs["truth"], runs["learned"], scenario.name,
+                                  figures["predictor"])
+        if replay:
+            artifacts.write_ghost_replay(tmp / "replay.html", scenario, runs["truth"], runs["learned"])
+        write_json(tmp / "compare.json", figures)

@@ -1,0 +1,367 @@
+"""`learned_dynamics`: a learned predictor drives the container-container contact.
+
+Drake's own contact between containers is filtered off (a SceneGraph collision
+filter over every container geometry); contact with the quay stays Drake's. One
+system, `learned_dynamics`, reads the bodies' poses and velocities, asks the
+predictor ONCE per step for every nearby container pair (one batched call), and
+applies the resulting wrenches as ExternallyAppliedSpatialForce (explicit: the force
+of step n is computed from the state of step n).
+
+Force law, per pair (A = lower body index, B = higher; n points from A into B):
+- line of action: the predicted contact point p and normal n (predictor.predict);
+- normal force: a Winkler foundation on the overlap of the two contact faces (the
+  face pair of least overlap among the 6 face axes: geometry, not the predictor),
+  F_el = kappa * integral of max(0, depth(u, v)) dA over the overlap rectangle, with
+  depth linear in (u, v) (flat faces), integrated exactly along the steeper face axis
+  and by a GRID-point midpoint rule across it (testbed/learned_force_law.py). kappa
+  [Pa/m] is fitted to Drake's static hydroelastic force-vs-depth curve of each size
+  pair (testbed.pair_plant.ContainerPair, aligned centred faces, overlap 0.05 to 5 mm;
+  `fit_pressure_stiffness`): 4.1017e7 Pa/m for every pair of 1CC/1AA/1AAA, linear
+  within 0.05 % over that range, i.e. E / (2 x 1.219 m) (two compliant boxes, each a
+  medial-axis field of depth half the 2.438 m width). Against Drake's static force
+  the law is within 1.4 % for pitch/roll up to 3e-2 rad and offset faces (tests).
+  Why not k * (separating-axis depth): the SAT depth is the DEEPEST point, so a
+  1e-4 rad tilt of a 10 t box on a 20 ft box made k * d_SAT 2.80e5 N where Drake gives
+  1.07e5 N (1e-5 rad: +19 %); and a fitted stiffness is cheaper and more transparent
+  than a learned force head, with nothing left for one to learn on flat faces. Limits:
+  the overlap is the bounding rectangle of B's face projected on A's face (+15 % force
+  at 0.2 rad of yaw), and edge-on-edge contact is treated as a face contact.
+- Hunt-Crossley dissipation: F_n = F_el * max(0, 1 + d * rate), rate = penetration
+  rate along n at the point [m/s], d = `dissipation` [s/m].
+- Coulomb friction at the point (mu: the friction effect's, i.e. the models' 0.4; 0
+  without it), by default a stick: an anchored tangential spring-damper between two
+  material points (the pair's discrete state), k_t = stick_hw^2 m_red / h^2 and
+  damping ratio stick_damping, capped at mu F_n (then it slips and re-anchors). Why:
+  a regularised law f_t = -c v_t must cap c at stiction * m_red / h to stay explicit-
+  stable, and then creeps at T / c under a steady load T (measured: 1.4 mm in 0.6 s
+  for an empty box under 2.6 kN of wind; five_stack ~6 mm/min); the stick holds (8e-8
+  m). stick_hw = 0 selects that regularised law. Torsional friction about n is
+  regularised (slip_speed, capped likewise) with r = (2/3) sqrt(area / pi), a disc of
+  the overlap's area (stacks would yaw freely about a single contact point without it).
+
+Stability (checked when the scene is built; ScenarioError naming the pair): the
+explicit force is integrated by Drake's symplectic Euler step. For a spring-damper
+of natural frequency w and damping c on mass m this is stable when
+(h w)^2 + 2 h c / m < 4 (Jury criterion; h w < 2 without damping). Per pair:
+the normal mode w^2 = 2 k (1/m_A + 1/m_B) with k = kappa * (largest face overlap),
+the factor 2 bounding a body pressed from two sides (Gershgorin); the tilt mode
+w^2 = 2 kappa I_face (1/I_A + 1/I_B) with I_face = w^3 l / 12 of the face overlap
+about its short axis and I_A, I_B the bodies' inertias about the face's edge-parallel
+axis through the face centre; c = d * W, W the weight of the free containers at or
+above the pair's upper body (its static load). The tilt mode assumes the predictor
+moves its point with tilt as Drake's centre of pressure does.
+
+Records (with `contact_log`): the `closed_loop` table, one row per active pair per
+step: a, b, p_W (k, 3) [m], n_W (k, 3), fn (k,) [N], f_W (k, 3) [N] on b, area
+(k,) [m^2]; when `shadow_truth` is on, Drake's static hydroelastic answer at the same
+relative pose (a ContainerPair plant): p_W_truth, n_W_truth, fn_truth [N],
+point_error [m], normal_error_deg.
+"""
+
+
+import dataclasses
+import math
+import typing
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+from pydrake.multibody.math import SpatialForce
+from pydrake.multibody.plant import ExternallyAppliedSpatialForce
+from pydrake.systems.framework import LeafSystem
+
+from testbed.containers import CONTAINER_TYPES
+from testbed.effects import register
+from testbed.effects.base import Effect
+from testbed.learned_force_law import FITTED_KAPPA, stability_numbers
+from testbed.records import TableBuilder
+
+MU_SDF = 0.4  # the models' mu_dynamic (sdf/README.md), what Drake's discrete solvers use
+NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (predicted)
+
+
+@dataclasses.dataclass
+class LearnedDynamicsConfig:
+    predictor: str = "improved"  # "improved" | "paper" | path to a weights file
+    pressure_stiffness: typing.Optional[float] = None  # [Pa/m] kappa; None = fitted per size pair
+    dissipation: float = 5.0  # [s/m] Hunt-Crossley d, the models' hunt_crossley_dissipation (sdf/README.md)
+    mu: typing.Optional[float] = None  # None: the friction effect's mu (SDF 0.4), 0 without it
+    # stick: anchored tangential spring-damper, k_t = stick_hw^2 m_red / h^2 (h w_t = stick_hw),
+    # damping ratio stick_damping; 0 = regularised Coulomb (slip_speed, stiction) instead
+    stick_hw: float = 0.3
+    stick_damping: float = 0.5
+    slip_speed: float = 1e-4  # [m/s] Coulomb regularisation speed (regularised law, torsion)
+    stiction: float = 0.5  # [-] cap of h c / m_red of the viscous friction (stable below 1)
+    torsional_friction: bool = True
+    grid: int = 4  # quadrature points per side of the face overlap
+    shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
+
+
+def load_named_predictor(name: str):
+    """`learned_contact.load_predictor(name)`; "improved" falls back to the shipped default
+    on versions that take only paths. Raises learned_contact's WeightsError."""
+    from learned_contact import load_predictor
+    from learned_contact.errors import WeightsError
+
+    try:
+        return load_predictor(name)
+    except WeightsError:
+        if name == "improved":
+            return load_predictor()
+        raise
+
+
+class LearnedDynamics(LeafSystem):
+    """Contact wrenches between container pairs from a predictor (see the module docstring)."""
+
+    def __init__(self, assembly, config: LearnedDynamicsConfig, predictor, kappa: np.ndarray, mu: float, pairs):
+        super().__init__()
+        self.set_name("learned_dynamics")
+        from testbed import learned_force_kernels  # numba: only scenes that build the effect load it
+
+        self._K = learned_force_kernels
+        plant = assembly.plant
+        self._cfg, self._pred, self._mu = config, predictor, float(mu)
+        self._h = plant.time_step()
+        specs = assembly.scenario.containers
+        bodies = [assembly.bodies[c.name] for c in specs]
+        self._rows = np.array([assembly.body_names.index(c.name) for c in specs])  # container -> body_names index
+        self._free = np.array([not c.fixed for c in specs])
+        nq = plant.num_positions()
+        self._q_start = np.array([b.floating_positions_start() if f else -1 for b, f in zip(bodies, self._free)])
+        self._v_start = np.array([nq + b.floating_velocities_start_in_v() if f else -1 for b, f in zip(bodies, self._free)])
+        self._fixed_p = np.array([c.pose().translation() for c in specs]).reshape(-1, 3)  # (m, 3) [m]
+        self._fixed_R = np.array([c.pose().rotation().matrix() for c in specs]).reshape(-1, 3, 3)
+        self._size = np.array([CONTAINER_TYPES[c.type].size for c in specs]).reshape(-1, 3)  # (m, 3) [m]
+        self._half = 0.5 * self._size
+        self._radius = np.linalg.norm(self._half, axis=1)
+        self._mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])  # [kg]
+        self._I_Bo = np.array([b.default_rotational_inertia().CopyToFullMatrix3() for b in bodies]).reshape(-1, 3, 3)
+        pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) container indices, A < B
+        self._ia, self._ib = pairs[:, 0].copy(), pairs[:, 1].copy()
+        self._kappa = np.asarray(kappa, dtype=float)  # (P,) [Pa/m]
+        self._types = [c.type for c in specs]
+        self._last = None  # the latest step's touching pairs (records, the crane's seating test)
+        self.table = TableBuilder()
+        self._shadow_pairs: dict = {}
+        self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
+        # the stick's anchors: per pair, material points in A and B [m] (6) and stuck flag (1)
+        self._anchor_state = self.DeclareDiscreteState(7 * len(pairs))
+        self._next_anchors = np.zeros(7 * len(pairs))
+        # an unrestricted update, like the plant's step (sampled ports): both read the same
+        # pre-step state, so the anchors come from the wrenches the plant just evaluated
+        self.DeclarePeriodicUnrestrictedUpdateEvent(self._h, 0.0, self._update_anchors)
+        self._forces = [ExternallyAppliedSpatialForce() for _ in specs]
+        for f, body in zip(self._forces, bodies):
+            f.body_index = body.index()
+            f.p_BoBq_B = np.zeros(3)
+        self._out = self.DeclareAbstractOutputPort(
+            "spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc)
+        builder = assembly.builder
+        builder.AddSystem(self)
+        builder.Connect(plant.get_state_output_port(), self._x)
+        assembly.add_spatial_forces(self._out)
+        # compile or load the numba kernels now, not inside the first timed step
+        x0 = plant.GetPositionsAndVelocities(plant.CreateDefaultContext())
+        self.wrenches(*self._K.bodies_from_state(x0, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free))
+        self._last = None
+        self._recording = "contact_log" in assembly.effects
+        if self._recording:
+            self.DeclarePeriodicPublishEvent(self._h, 0.0, self._record)
+
+    def touching(self, container: int) -> bool:
+        """Whether container (scene index) was in learned contact at the latest computed step."""
+        last = self.last()
+        return last is not None and bool(np.any(last["pairs"] == container))
+
+    def last(self) -> dict | None:
+        """The latest computed step's touching pairs: pairs (k, 2) container indices, p_W,
+        n_W, f_W (k, 3), fn, area (k,), p_AB (k, 3), R_AB (k, 3, 3), p_WA, R_WA (A's pose)."""
+        if self._last is None or isinstance(self._last, dict):
+            return self._last
+        ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R = self._last
+        touch = fn > 0
+        self._last = {"pairs": np.stack([ia[touch], ib[touch]], axis=1), "p_W": p_W[touch], "n_W": n_W[touch],
+                      "fn": fn[touch], "f_W": f_W[touch], "area": area[touch], "p_AB": p_AB[touch],
+                      "R_AB": R_AB[touch], "p_WA": p[ia[touch]], "R_WA": R[ia[touch]]}
+        return self._last
+
+    def _update_anchors(self, context, state) -> None:
+        self._out.Eval(context)  # cached: its calc left the next anchors for this very state
+        state.get_mutable_discrete_state(self._anchor_state).SetFromVector(self._next_anchors)
+
+    def _calc(self, context, output) -> None:
+        x = self._x.Eval(context)
+        anchors = context.get_discrete_state(self._anchor_state).get_value().reshape(-1, 7)
+        wrench = self.wrenches(*self._K.bodies_from_state(x, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free),
+                               anchors=anchors)
+        out = []
+        for k in np.flatnonzero(self._free):
+            f = self._forces[k]
+            f.F_Bq_W = SpatialForce(tau=wrench[k, :3], f=wrench[k, 3:])
+            out.append(f)
+        output.set_value(out)
+
+    def wrenches(self, p, R, w, v, anchors=None) -> np.ndarray:
+        """(m, 6) [N m, N] torque about each body origin and force, in W, on each container,
+        from body-origin positions p (m, 3) [m], rotations R_WB (m, 3, 3) and velocities
+        w, v (m, 3) [rad/s, m/s] in W and the stick anchors (P, 7) (see _anchor_state).
+        One predictor call for all candidate pairs. Leaves the next anchors in _next_anchors."""
+        anchors = np.zeros((len(self._ia), 7)) if anchors is None else anchors
+        keep, p_AB, R_AB = self._K.near_pairs(p, R, self._ia, self._ib, self._half, self._radius, self._free, NEAR)
+        self._last = {"pairs": np.zeros((0, 2), np.int64)}
+        self._next_anchors = np.zeros(anchors.size)
+        if not len(keep):
+            return np.zeros((len(p), 6))
+        ia, ib = self._ia[keep], self._ib[keep]
+        size_A, size_B = self._size[ia], self._size[ib]
+        point_A, normal_A = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
+        c = self._cfg
+        out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next = self._K.pair_wrenches(
+            p, R, w, v, self._mass, self._I_Bo, ia, ib, self._kappa[keep], np.ascontiguousarray(point_A),
+            np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self._mu,
+            c.slip_speed, c.stiction, self._h, c.torsional_friction, c.grid,
+            np.ascontiguousarray(anchors[keep, :6]), np.ascontiguousarray(anchors[keep, 6]), c.stick_hw, c.stick_damping)
+        nxt = self._next_anchors.reshape(-1, 7)
+        nxt[keep, :6], nxt[keep, 6] = anchors_next, stuck_next
+        self._last = (ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R)  # last() builds the dict on demand
+        return out
+
+    def _record(self, context) -> None:
+        self._out.Eval(context)  # the cached wrenches of this state
+        last = self.last()
+        if last is None or not len(last["pairs"]):
+            return
+        a, b = self._rows[last["pairs"][:, 0]], self._rows[last["pairs"][:, 1]]
+        columns = {"a": a, "b": b, "p_W": last["p_W"], "n_W": last["n_W"], "fn": last["fn"],
+                   "f_W": last["f_W"], "area": last["area"]}
+        if self._cfg.shadow_truth:
+            columns.update(self._truth(last))
+        self.table.append(int(round(context.get_time() / self._h)), context.get_time(), columns)
+
+    def _truth(self, last) -> dict:
+        """Drake's static hydroelastic answer at each active pair's relative pose, in W."""
+        from pydrake.geometry import HydroelasticContactRepresentation
+
+        from testbed.contact_geometry import angle_between, static_pressure, surface_face_arrays
+        from testbed.pair_plant import ContainerPair
+
+        k = len(last["pairs"])
+        p_W, n_W, fn = np.full((k, 3), np.nan), np.full((k, 3), np.nan), np.zeros(k)
+        for row, (i, j) in enumerate(last["pairs"]):
+            key = (self._types[i], self._types[j])
+            if key not in self._shadow_pairs:
+                self._shadow_pairs[key] = ContainerPair(*key)
+            query = self._shadow_pairs[key].set_pose(last["p_AB"][row], last["R_AB"][row])
+            surfaces = query.ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
+            if surfaces:
+                s = static_pressure(surface_face_arrays(surfaces[0]))
+                sign = 1.0 if self._shadow_pairs[key].gid_a == surfaces[0].id_M() else -1.0  # force on M
+                p_W[row] = last["p_WA"][row] + last["R_WA"][row] @ s.cop
+                n_W[row] = last["R_WA"][row] @ (-sign * s.normal)
+                fn[row] = float(np.linalg.norm(s.force))
+        return {"p_W_truth": p_W, "n_W_truth": n_W, "fn_truth": fn,
+                "point_error": np.linalg.norm(p_W - last["p_W"], axis=1),
+                "normal_error_deg": np.degrees(angle_between(last["n_W"], n_W))}
+
+
+def _empty() -> dict:
+    z3, z = np.zeros((0, 3)), np.zeros(0)
+    return {"a": z.astype(int), "b": z.astype(int), "p_W": z3, "n_W": z3, "fn": z, "f_W": z3, "area": z,
+            "p_W_truth": z3, "n_W_truth": z3, "fn_truth": z, "point_error": z, "normal_error_deg": z}
+
+
+@register
+class LearnedDynamicsEffect(Effect):
+    name = "learned_dynamics"
+    Config = LearnedDynamicsConfig
+    order = 22  # before crane (25), which asks it whether its container is seated
+    requires = ("contact",)
+    STABLE_BELOW = 4.0  # (h w)^2 + 2 h c / m of the explicit symplectic Euler step
+
+    def check(self, effects) -> None:
+        super().check(effects)
+        c = self.config
+        for field in ("dissipation", "slip_speed", "stiction", "stick_hw", "stick_damping"):
+            value = getattr(c, field)
+            if not (math.isfinite(value) and value >= 0) or (field == "slip_speed" and value == 0):
+                raise self.fail(field, f"expected a finite {'positive' if field == 'slip_speed' else 'non-negative'} number, got {value}")
+        if not 0 <= c.stiction <= 1:
+            raise self.fail("stiction", f"expected a fraction in [0, 1], got {c.stiction}")
+        if 2 * (c.stick_hw**2 + 4 * c.stick_damping * c.stick_hw) >= self.STABLE_BELOW:
+            raise self.fail("stick_hw", f"the stick spring-damper is unstable with two contacts per body: "
+                            f"2 (stick_hw^2 + 4 stick_damping stick_hw) = "
+                            f"{2 * (c.stick_hw**2 + 4 * c.stick_damping * c.stick_hw):.2f}, expected below 4")
+        if c.pressure_stiffness is not None and not c.pressure_stiffness > 0:
+            raise self.fail("pressure_stiffness", f"expected a positive stiffness [Pa/m], got {c.pressure_stiffness}")
+        if not (isinstance(c.grid, int) and c.grid >= 1):
+            raise self.fail("grid", f"expected a whole number >= 1, got {c.grid}")
+        if c.mu is not None and not c.mu >= 0:
+            raise self.fail("mu", f"expected a non-negative friction coefficient, got {c.mu}")
+        if self.scenario.plant.time_step <= 0:
+            raise self.fail("", "needs a discrete plant (plant.time_step > 0)")
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Loads the predictor, lists the pairs, checks the explicit step's stability."""
+        from learned_contact.errors import WeightsError
+
+        c = self.config
+        try:
+            self.predictor = load_named_predictor(c.predictor)
+        except WeightsError as e:
+            raise self.fail("predictor", f"expected 'improved', 'paper' or a weights file: {e}") from None
+        specs = self.scenario.containers
+        self.pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))
+                      if not (specs[i].fixed and specs[j].fixed)]
+        self.kappa = np.array([c.pressure_stiffness or FITTED_KAPPA[frozenset((specs[i].type, specs[j].type))]
+                               for i, j in self.pairs])
+        self.stability = stability_numbers(self.scenario, self.pairs, self.kappa, c.dissipation)
+        for row in self.stability:
+            worst = max(("normal", "tilt"), key=lambda mode: row[mode])
+            if row[worst] >= self.STABLE_BELOW:
+                h = self.scenario.plant.time_step
+                raise self.fail(
+                    "", f"pair '{row['pair'][0]}'-'{row['pair'][1]}': the explicit contact force is unstable at "
+                    f"plant.time_step = {h:g} s: {worst} mode (h w)^2 + 2 h c / m = {row[worst]:.2f} "
+                    f"(h w = {row['h_w_' + worst]:.2f}), expected below {self.STABLE_BELOW:g}; "
+                    f"use a time step below about {h * math.sqrt(self.STABLE_BELOW / row[worst]):.2g} s")
+
+    def add_systems(self, assembly) -> list:
+        if not hasattr(self, "predictor"):
+            self._prepare()
+        plant, specs = assembly.plant, self.scenario.containers
+        ids = [gid for c in specs for gid in plant.GetCollisionGeometriesForBody(assembly.bodies[c.name])]
+        if ids:
+            assembly.scene_graph.collision_filter_manager().Apply(
+                CollisionFilterDeclaration().ExcludeWithin(GeometrySet(ids)))
+        mu = 0.0
+        friction = self.scenario.effects.friction
+        if friction is not None:
+            mu = self.config.mu if self.config.mu is not None else (friction.mu if friction.mu is not None else MU_SDF)
+        self.system = LearnedDynamics(assembly, self.config, self.predictor, self.kappa, mu, self.pairs)
+        return [self.system]
+
+    def collect(self, tables: dict) -> None:
+        if self.system._recording:
+            empty = _empty()
+            if not self.config.shadow_truth:
+                empty = {k: v for k, v in empty.items() if not (k.endswith("_truth") or k.endswith("error")
+                                                                or k.endswith("error_deg"))}
+            tables["closed_loop"] = self.system.table.build(empty)
+
+    def summarize(self, tables: dict) -> dict:
+        out = {"learned_dynamics_predictor": self.config.predictor,
+               "learned_dynamics_stability_max": max((max(r["normal"], r["tilt"]) for r in self.stability), default=0.0)}
+        table = tables.get("closed_loop")
+        if table is not None and "point_error" in table and len(table["a"]):
+            for column, unit in (("point_error", "m"), ("normal_error_deg", "deg")):
+                v = table[column][np.isfinite(table[column])]
+                if v.size:
+                    name = column.replace("_deg", "")
+                    out[f"closed_loop_{name}_median_{unit}"] = float(np.median(v))
+                    out[f"closed_loop_{name}_max_{unit}"] = float(v.max())
+            ok = table["fn_truth"] > 0
+            if np.any(ok):
+                out["closed_loop_force_error_max_rel"] = float(np.max(np.abs(table["fn"][ok] / table["fn_truth"][ok] - 1)))
+        return out

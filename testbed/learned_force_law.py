@@ -1,0 +1,79 @@
+"""The closed loop's force law: its stiffness fitted to Drake and the explicit step's
+stability numbers (no numba here: every scene load imports this; the per-step kernels
+are in testbed/learned_force_kernels.py, imported when a scene builds the effect).
+
+Used by testbed/effects/learned_dynamics.py (its docstring states the law, the fit and
+the stability criterion). Frames: A is the first box's frame (origin at its centre, axes
+along its edges); p_AB (n, 3) [m] and R_AB (n, 3, 3) are B's pose in A; half extents
+h_A, h_B (n, 3) [m].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from testbed.containers import CONTAINER_TYPES
+from testbed.physics import GRAVITY
+
+# [Pa/m] fitted pressure stiffness per unordered size pair (fit_pressure_stiffness;
+# tests/test_closed_loop.py re-fits it against Drake).
+FITTED_KAPPA = {frozenset(p): 4.1017e7 for p in
+                [("1CC",), ("1AA",), ("1AAA",), ("1CC", "1AA"), ("1CC", "1AAA"), ("1AA", "1AAA")]}
+
+
+def fit_pressure_stiffness(type_a: str, type_b: str, depths=(5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3)) -> tuple[float, float]:
+    """(kappa [Pa/m], worst relative deviation) of Drake's static hydroelastic force F(d)
+    = kappa * A * d, B centred on A's top face, aligned, overlap d [m], A the face overlap."""
+    from pydrake.geometry import HydroelasticContactRepresentation
+
+    from testbed.contact_geometry import static_pressure, surface_face_arrays
+    from testbed.pair_plant import ContainerPair
+
+    pair = ContainerPair(type_a, type_b)
+    s_a, s_b = np.asarray(CONTAINER_TYPES[type_a].size), np.asarray(CONTAINER_TYPES[type_b].size)
+    area = min(s_a[0], s_b[0]) * min(s_a[1], s_b[1])
+    d = np.asarray(depths)
+    force = []
+    for depth in d:
+        query = pair.set_pose([0.0, 0.0, 0.5 * (s_a[2] + s_b[2]) - depth], np.eye(3))
+        (surface,) = query.ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
+        force.append(np.linalg.norm(static_pressure(surface_face_arrays(surface)).force))
+    x = area * d
+    kappa = float(x @ np.asarray(force) / (x @ x))
+    return kappa, float(np.max(np.abs(np.asarray(force) / (kappa * x) - 1.0)))
+
+
+def stability_numbers(scenario, pairs, kappa, dissipation: float) -> list[dict]:
+    """Per pair: the normal and tilt modes' (h w)^2 + 2 h c / m (stable below 4; see the
+    module docstring), with the figures they come from."""
+    specs = scenario.containers
+    h = scenario.plant.time_step
+    out = []
+    for (i, j), kap in zip(pairs, kappa):
+        a, b = specs[i], specs[j]
+        s_a, s_b = np.asarray(CONTAINER_TYPES[a.type].size), np.asarray(CONTAINER_TYPES[b.type].size)
+        overlap = np.minimum(s_a, s_b)
+        face = int(np.argmax([overlap[1] * overlap[2], overlap[0] * overlap[2], overlap[0] * overlap[1]]))
+        l, wid = sorted(np.delete(overlap, face), reverse=True)  # face overlap sides [m]
+        k = kap * l * wid  # [N/m]
+        inv_m, inv_I = 0.0, 0.0
+        for spec, size in ((a, s_a), (b, s_b)):
+            if spec.fixed:
+                continue
+            m = spec.total_mass()
+            inv_m += 1.0 / m
+            # about the face's long edge direction through the face centre (the stiffer, short-side tilt)
+            I = m * (wid**2 + size[face] ** 2) / 12.0 + m * (0.5 * size[face]) ** 2
+            inv_I += 1.0 / I
+        z_top = max(a.pose().translation()[2], b.pose().translation()[2])
+        load = GRAVITY * sum(c.total_mass() for c in specs if not c.fixed and c.pose().translation()[2] >= z_top - 0.1)
+        c = dissipation * load  # [N s/m] Hunt-Crossley at the static load
+        normal = (h * math.sqrt(2 * k * inv_m)) ** 2 + 2 * h * c * inv_m
+        k_tilt = kap * wid**3 * l / 12.0  # [N m/rad]
+        tilt = (h * math.sqrt(2 * k_tilt * inv_I)) ** 2 + 2 * h * c * inv_m
+        out.append({"pair": (a.name, b.name), "k_N_per_m": k, "h_w_normal": h * math.sqrt(2 * k * inv_m),
+                    "normal": normal, "k_tilt_Nm_per_rad": k_tilt, "h_w_tilt": h * math.sqrt(2 * k_tilt * inv_I),
+                    "tilt": tilt, "damping": 2 * h * c * inv_m})
+    return out
