@@ -1,0 +1,232 @@
+"""The twin run against MuJoCo: `testbed compare SCENE --engine mujoco`.
+
+Reuses testbed/compare (H-loop's twin-run machinery): the same Drake variants and
+Trajectory records, `compare_figures` for the compare.json keys (the MuJoCo run sits
+where the learned run sits, so every key of the learned compare is there), the same
+trajectories.npz (MuJoCo under the `learned_` prefix), divergence plot and ghost replay.
+Added: MuJoCo's per-step contacts, reduced per body pair to a point and normal
+(mujoco_run.py), against Drake's centre of pressure `p_W_cop` and normal `n_W` of the
+same step and pair (contact_log rows, every `record_every` steps), and the wall time
+per simulated second of each engine measured in this one process.
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+
+from testbed.box_geometry import box_box_signed_distance
+from testbed.engines.mujoco import check_supported
+from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
+from testbed.physics import percentile_summary
+
+
+RECORD_PERIOD = 0.01  # [s] spacing of the compared states (testbed/compare/twin.py's default)
+
+
+class SatDepth:
+    """The `depth` call compare_figures needs from a predictor, by the separating-axis test
+    (testbed/box_geometry.py): (n,) penetration [m] of B into A, negative = separated."""
+
+    def depth(self, p_AB, R_AB, *, size_A, size_B):
+        p, R = np.asarray(p_AB, float).reshape(-1, 3), np.asarray(R_AB, float).reshape(-1, 3, 3)
+        sizes = np.hstack([np.asarray(size_A, float).reshape(-1, 3), np.asarray(size_B, float).reshape(-1, 3)])
+        out = np.zeros(len(p))
+        unique, inverse = np.unique(sizes, axis=0, return_inverse=True)
+        for u, row in enumerate(unique):
+            rows = np.flatnonzero(inverse.ravel() == u)
+            out[rows] = -box_box_signed_distance(p[rows], R[rows], 0.5 * row[:3], 0.5 * row[3:])
+        return out
+
+
+def trajectory_of(run: MujocoRun, every: int):
+    """The MuJoCo run as a testbed.compare.runs.Trajectory on the grid of every `every` steps."""
+    from testbed.compare.runs import Trajectory
+
+    steps = run.tables["steps"]
+    keep = np.flatnonzero(steps["step"] % every == 0)
+    energy = steps["kinetic_energy"] + steps["potential_energy"]
+    s = run.summary
+    return Trajectory(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
+                      V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
+                      wall_s=s["wall_time_s"], simulated_s=s["steps"] * s["time_step_s"],
+                      error="MuJoCo reported an unstable state" if s["diverged"] else "", names=tuple(run.free_names))
+
+
+def drake_truth(scenario, duration: float, every: int, source="<scenario>"):
+    """(Trajectory, contacts table) of Drake's run of the scene's own contact model, with
+    contact_log every `every` steps (its wall time includes that logging)."""
+    from testbed.builder import build_scene
+    from testbed.compare.runs import run_variant, variant
+    from testbed.effects.contact_log import ContactLogConfig
+
+    logged = variant(scenario, "truth")
+    logged.effects.contact_log = ContactLogConfig(every_steps=every)
+    scene = build_scene(logged, source)
+    traj = run_variant(None, duration, every, scene=scene)
+    return traj, scene.effects["contact_log"].logger.tables()["contacts"]
+
+
+def centre_of_pressure_in_plane(rows: dict, index) -> np.ndarray:
+    """(n, 3) [m] where the line of action of Drake's contact wrench crosses the contact plane
+    (through p_W_centroid, normal n_W). contact_log's p_W_cop is the point of that line
+    nearest the centroid, which leaves the plane when friction tilts the force: a 2.2 t box
+    held by a 24 m/s side wind (f_t/f_n = 0.31) has them 0.12 m apart. MuJoCo's
+    force-weighted centroid lies in the plane, so the plane crossing is what it is judged
+    against. Rows whose force has no normal part keep p_W_cop."""
+    cop, c = rows["p_W_cop"][index], rows["p_W_centroid"][index]
+    n, f = rows["n_W"][index], rows["f_W"][index]
+    fn = np.einsum("ni,ni->n", f, n)
+    ok = fn > 1e-9 * np.maximum(np.linalg.norm(f, axis=1), 1e-300)
+    s = np.where(ok, np.einsum("ni,ni->n", c - cop, n) / np.where(ok, fn, 1.0), 0.0)
+    return cop + s[:, None] * f
+
+
+def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
+    """Point [m] and normal [deg] errors of MuJoCo's reduced contacts against Drake's centre
+    of pressure (in the contact plane, see centre_of_pressure_in_plane) and normal, over the
+    (step, a, b) rows both have."""
+    def keyed(t):
+        return {(int(s), int(a), int(b)): i for i, (s, a, b) in enumerate(zip(t["step"], t["a"], t["b"]))}
+
+    drake, mj = keyed(drake_contacts), keyed(mujoco_contacts)
+    common = [k for k in drake if k in mj]
+    steps = {k[0] for k in drake}
+    extra = sum(1 for k in mj if k[0] in steps and k not in drake)
+    out = {"contact_rows_compared": len(common), "contact_rows_missing_mujoco": len(drake) - len(common),
+           "contact_rows_extra_mujoco": extra}
+    if not common:
+        return out
+    i_d = np.array([drake[k] for k in common])
+    i_m = np.array([mj[k] for k in common])
+    point_err = np.linalg.norm(mujoco_contacts["p_W_cop"][i_m] - centre_of_pressure_in_plane(drake_contacts, i_d), axis=1)
+    cos = np.einsum("ni,ni->n", mujoco_contacts["n_W"][i_m], drake_contacts["n_W"][i_d])
+    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    last = np.array([k[0] for k in common]) == max(k[0] for k in common)  # the last compared step
+    for name, values in (("contact_point_error", point_err), ("contact_normal_error", angle)):
+        unit = "m" if name == "contact_point_error" else "deg"
+        for stat, value in percentile_summary(values, (50, 95)).items():
+            out[f"{name}_{stat}_{unit}"] = value
+        out[f"{name}_final_max_{unit}"] = float(values[last].max())
+    return out
+
+
+def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: float | None = None,
+                   with_point: bool = True, bare_truth: bool = True, replay: bool = False,
+                   record_every: int | None = None, time_step: float | None = None) -> dict:
+    """Twin run of `scene` (name, path or Scenario): Drake (the scene's contact model, the
+    ground truth) and MuJoCo (`params` 'matched' | 'default'). Returns the compare.json
+    figures (the learned compare's keys, MuJoCo in the learned slot, plus contact_* and
+    wall_per_sim_s_mujoco); writes out_dir/compare.json, trajectories.npz, divergence.png
+    (and replay.html when `replay`) atomically when out_dir is given.
+    bare_truth: time Drake again without logging (the truth's wall time); with_point: time
+    Drake point contact as well. Raises UnsupportedSceneError before anything runs.
+    """
+    from testbed.compare.metrics import compare_figures
+    from testbed.compare.runs import run_variant, variant
+    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
+
+    if isinstance(scene, Scenario):
+        scenario, source = scene, "<scenario>"
+    else:
+        source = resolve_scene_path(scene)
+        scenario = load_scenario(source)
+    check_supported(scenario)
+    if time_step is not None:
+        scenario = copy.deepcopy(scenario)
+        scenario.plant.time_step = float(time_step)
+    duration = scenario.duration if duration is None else float(duration)
+    h = scenario.plant.time_step
+    every = record_every or max(1, int(round(RECORD_PERIOD / h)))
+    mj_run = simulate_mujoco(scenario, duration=duration, params=params)
+    mujoco = trajectory_of(mj_run, every)
+    truth, drake_contacts = drake_truth(scenario, duration, every, source)
+    runs = {"truth": truth, "learned": mujoco}
+    walls = {"truth": truth.wall_s / max(truth.simulated_s, 1e-12)}
+    if bare_truth:
+        bare = run_variant(variant(scenario, "truth"), duration, every, source)
+        walls["truth"] = bare.wall_s / max(bare.simulated_s, 1e-12)
+    if with_point:
+        runs["point"] = run_variant(variant(scenario, "point"), duration, every, source)
+        walls["point"] = runs["point"].wall_s / max(runs["point"].simulated_s, 1e-12)
+    figures = {"scene": scenario.name, "engine": "mujoco", "predictor": f"mujoco-{params}", "params": params,
+               "mujoco_version": mj_run.summary["mujoco_version"], "duration_s": duration, "time_step_s": h,
+               "record_period_s": every * h}
+    figures.update(compare_figures(truth, mujoco, [c for c in scenario.containers if not c.fixed], SatDepth()))
+    figures["wall_per_sim_s_truth_logged"] = truth.wall_s / max(truth.simulated_s, 1e-12)
+    for kind, value in walls.items():
+        figures[f"wall_per_sim_s_{kind}"] = value
+    figures["wall_per_sim_s_learned"] = figures["wall_per_sim_s_mujoco"] = mj_run.summary["wall_per_sim_s"]
+    figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_mujoco"]
+    if with_point:
+        figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures["wall_per_sim_s_mujoco"]
+    figures["mujoco_max_penetration_m"] = mj_run.summary["max_penetration_m"]
+    figures.update(contact_figures(drake_contacts, mj_run.tables["contacts"]))
+    if out_dir is not None:
+        from testbed.compare import artifacts
+        from testbed.records import atomic_directory, write_json
+
+        with atomic_directory(out_dir) as tmp:
+            artifacts.write_series(tmp / "trajectories.npz", runs)
+            artifacts.plot_divergence(tmp / "divergence.png", truth, mujoco, scenario.name, f"MuJoCo ({params})")
+            if replay:
+                artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, mujoco)
+            (tmp / "mujoco.xml").write_text(mj_run.mjcf)
+            write_json(tmp / "compare.json", figures)
+        figures["out_dir"] = str(Path(out_dir))
+    return figures
+
+
+def format_mujoco_figures(f: dict) -> str:
+    """The few lines `testbed compare SCENE --engine mujoco` prints."""
+    lines = [
+        f"scene {f['scene']} in MuJoCo {f['mujoco_version']} ({f['params']} contact parameters): "
+        f"{'DIVERGED' if f['diverged'] else 'ran'} ({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
+        f"  position error max {f['position_error_max_m'] * 1e3:.3f} mm (final {f['final_position_error_max_m'] * 1e3:.3f} mm, "
+        f"angle {f['final_angle_error_max_deg']:.4f} deg); max penetration {f['max_penetration_m'] * 1e3:.3f} mm; "
+        f"energy gain max {f['energy_gain_max_J']:.3g} J",
+        "  wall per simulated second: MuJoCo {:.4f} s, Drake hydroelastic {:.3f} s{}".format(
+            f["wall_per_sim_s_mujoco"], f["wall_per_sim_s_truth"],
+            f", Drake point {f['wall_per_sim_s_point']:.3f} s" if "wall_per_sim_s_point" in f else ""),
+    ]
+    if "contact_point_error_median_m" in f:
+        lines.append(f"  contact point vs Drake's centre of pressure: median {f['contact_point_error_median_m'] * 1e3:.1f} mm, "
+                     f"p95 {f['contact_point_error_p95_m'] * 1e3:.1f} mm, last step {f['contact_point_error_final_max_m'] * 1e3:.1f} mm; "
+                     f"normal max {f['contact_normal_error_max_deg']:.3f} deg")
+    return "\n".join(lines)
+
+
+def engine_table_row(scene, *, params=("matched", "default"), duration: float | None = None,
+                     record_every: int | None = None) -> dict:
+    """One scene, Drake run once and MuJoCo once per parameter set, all in this process:
+    {'scene', 'duration_s', 'wall_per_sim_s_hydroelastic', 'wall_per_sim_s_point',
+     'mujoco': {params: figures}} where figures are compare.json's (position, angle,
+    penetration, energy, contact point/normal errors, wall_per_sim_s_mujoco) and the
+    speed-ups against Drake's bare hydroelastic and point runs. For the validate section
+    "the engine users would pick instead". Raises UnsupportedSceneError (crane scenes)."""
+    from testbed.compare.metrics import compare_figures
+    from testbed.compare.runs import run_variant, variant
+    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
+
+    scenario = scene if isinstance(scene, Scenario) else load_scenario(resolve_scene_path(scene))
+    check_supported(scenario)
+    duration = scenario.duration if duration is None else float(duration)
+    every = record_every or max(1, int(round(RECORD_PERIOD / scenario.plant.time_step)))
+    truth, drake_contacts = drake_truth(scenario, duration, every)
+    walls = {}
+    for kind, label in (("truth", "hydroelastic"), ("point", "point")):
+        bare = run_variant(variant(scenario, kind), duration, every)
+        walls[label] = bare.wall_s / max(bare.simulated_s, 1e-12)
+    row = {"scene": scenario.name, "duration_s": duration, "time_step_s": scenario.plant.time_step,
+           **{f"wall_per_sim_s_{k}": v for k, v in walls.items()}, "mujoco": {}}
+    for name in params:
+        run = simulate_mujoco(scenario, duration=duration, params=name)
+        figures = compare_figures(truth, trajectory_of(run, every), [c for c in scenario.containers if not c.fixed], SatDepth())
+        figures.update(contact_figures(drake_contacts, run.tables["contacts"]))
+        figures["wall_per_sim_s_mujoco"] = run.summary["wall_per_sim_s"]
+        figures["speedup_vs_hydroelastic"] = walls["hydroelastic"] / run.summary["wall_per_sim_s"]
+        figures["speedup_vs_point"] = walls["point"] / run.summary["wall_per_sim_s"]
+        row["mujoco"][name] = figures
+    return row
