@@ -49,7 +49,7 @@ def gate_figures(predictor, data: dict) -> dict:
 
 def evaluate_gates(seed: int = 0, *, predictor_path=None, n: int = N_HELD_OUT) -> dict:
     """Gates of the predictor at `predictor_path` (default: shipped) on fresh held-out poses."""
-    from learned_contact.predictor import load_predictor
+    from learned_contact.loading import load_predictor
 
     figures = gate_figures(load_predictor(predictor_path), held_out(seed, n))
     gates = [{"name": name, "passed": bool(figures[name] <= limit), "value": figures[name], "threshold": limit,

@@ -9,10 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-# (8, 3) corner signs of a box, in a fixed order.
-CORNER_SIGNS = np.array(
-    [[sx, sy, sz] for sx in (-1.0, 1.0) for sy in (-1.0, 1.0) for sz in (-1.0, 1.0)]
-)
+from testbed.box_geometry import CORNER_SIGNS, corners_of_B_in_A, sat_axes, sat_normal, sat_overlap  # noqa: F401 (moved)
 
 
 def rotation_from_rpy(rpy) -> np.ndarray:
@@ -55,65 +52,6 @@ def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
         ],
         axis=1,
     )
-
-
-def corners_of_B_in_A(p_AB, R_AB, h_B) -> np.ndarray:
-    """(n, 8, 3) B's corners in A's frame [m]."""
-    local = CORNER_SIGNS[None] * np.asarray(h_B).reshape(-1, 1, 3)  # (n|1, 8, 3)
-    return p_AB[:, None, :] + np.einsum("nij,nkj->nki", R_AB, local)
-
-
-def sat_axes(R_AB) -> np.ndarray:
-    """(n, 15, 3) candidate separating axes in A's frame: A's 3 face normals, B's 3,
-    and the 9 edge cross products (unit length; near-parallel edge pairs give a zero
-    vector, which sat_overlap treats as uninformative)."""
-    n = len(R_AB)
-    b = np.swapaxes(R_AB, 1, 2)  # rows: B's axes in A
-    bx, by, bz = b[:, :, 0], b[:, :, 1], b[:, :, 2]  # (n, 3) components of B's 3 axes
-    zero = np.zeros_like(bx)
-    cross = np.empty((n, 3, 3, 3))  # [n, A axis i, B axis j, xyz] = e_i x b_j
-    cross[:, 0] = np.stack([zero, -bz, by], axis=-1)
-    cross[:, 1] = np.stack([bz, zero, -bx], axis=-1)
-    cross[:, 2] = np.stack([-by, bx, zero], axis=-1)
-    cross = cross.reshape(n, 9, 3)
-    norm = np.sqrt(np.einsum("nkj,nkj->nk", cross, cross))[:, :, None]
-    cross = np.where(norm > 1e-6, cross / np.maximum(norm, 1e-12), 0.0)
-    return np.concatenate([np.broadcast_to(np.eye(3), (n, 3, 3)), b, cross], axis=1)
-
-
-def sat_overlap(p_AB, R_AB, h_A, h_B):
-    """Separating-axis test of two boxes.
-
-    Returns (overlap (n, 15) [m] along each axis of sat_axes, positive = overlapping;
-    axes (n, 15, 3)). Degenerate (zero) axes get +inf overlap.
-    """
-    axes = sat_axes(R_AB)
-    h_A = np.broadcast_to(np.asarray(h_A, dtype=float), p_AB.shape)
-    h_B = np.broadcast_to(np.asarray(h_B, dtype=float), p_AB.shape)
-    rA = (np.abs(axes) @ h_A[:, :, None])[:, :, 0]  # (n, 15)
-    axes_in_B = axes @ R_AB  # axes expressed in B
-    rB = (np.abs(axes_in_B) @ h_B[:, :, None])[:, :, 0]
-    dist = np.abs((axes @ p_AB[:, :, None])[:, :, 0])
-    overlap = rA + rB - dist
-    degenerate = (axes * axes).sum(axis=2) < 0.25
-    return np.where(degenerate, np.inf, overlap), axes
-
-
-def sat_normal(p_AB, R_AB, h_A, h_B, precomputed=None):
-    """Minimum-overlap axis (the geometric contact normal, A towards B) and its overlap.
-
-    Returns (normal (n, 3) unit in A, depth (n,) [m], axis index (n,) in 0..14).
-    Face axes are preferred over edge axes within 1 mm to avoid flicker on faces.
-    """
-    overlap, axes = precomputed if precomputed is not None else sat_overlap(p_AB, R_AB, h_A, h_B)
-    bias = np.zeros(15)
-    bias[6:] = 1e-3
-    k = np.argmin(overlap + bias, axis=1)
-    idx = np.arange(len(k))
-    normal = axes[idx, k]
-    sign = np.sign(np.einsum("nj,nj->n", normal, p_AB))
-    normal = normal * np.where(sign == 0, 1.0, sign)[:, None]
-    return normal, overlap[idx, k], k
 
 
 def support_count(vertices, direction, tol) -> np.ndarray:

@@ -1,7 +1,7 @@
 """A plain multilayer perceptron evaluated with numpy (no torch).
 
 Weights are a list of (W (in, out), b (out,)) arrays; hidden layers use `activation`
-(tanh or silu), the output layer is linear. Inputs are standardised with (mean, std)
+(tanh, silu or relu), the output layer is linear. Inputs are standardised with (mean, std)
 stored beside the weights.
 """
 
@@ -17,7 +17,11 @@ def _silu(x):
     return x * (0.5 + 0.5 * np.tanh(0.5 * x))
 
 
-ACTIVATIONS = {"tanh": np.tanh, "silu": _silu}
+def _relu(x):
+    return np.maximum(x, 0.0)
+
+
+ACTIVATIONS = {"tanh": np.tanh, "silu": _silu, "relu": _relu}
 
 
 @dataclasses.dataclass(frozen=True)

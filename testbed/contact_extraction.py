@@ -14,6 +14,11 @@ Columns (k contacts):
   p_W_cop_static  (k, 3) [m]   pressure-weighted centroid of the surface (elastic pressure only,
                                the learned labels' definition; point: the contact point)
   n_W             (k, 3)       unit normal, a -> b (hydroelastic: pressure-weighted)
+  static_age      (k,)   int   steps since p_W_cop_static and n_W were computed from the
+                               surface's faces: 0 = on this row's state; k > 0 = held from
+                               k steps earlier (the contact log reads a pair's faces every
+                               `static_every_steps` steps, see StaticHold); always 0 for
+                               point pairs and shadow rows
   f_W             (k, 3) [N]   contact force on b (static/elastic part for shadow rows)
   fn              (k,)   [N]   f_W . n_W
   ft_W            (k, 3) [N]   f_W - fn n_W
@@ -30,42 +35,83 @@ from testbed.contact_geometry import point_on_line_of_action, split_force, stati
 
 HYDRO, POINT = 0, 1
 VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "p_W_cop_static", "n_W", "f_W", "ft_W")
-SCALAR_COLUMNS = ("a", "b", "kind", "fn", "area", "phi")
+SCALAR_COLUMNS = ("a", "b", "kind", "fn", "area", "phi", "static_age")
+INT_COLUMNS = ("a", "b", "kind", "static_age")
 
 
 def empty_columns() -> dict[str, np.ndarray]:
     out = {k: np.zeros((0, 3)) for k in VECTOR_COLUMNS}
-    out.update({k: np.zeros(0) for k in SCALAR_COLUMNS})
-    out["a"] = out["a"].astype(int)
-    out["b"] = out["b"].astype(int)
-    out["kind"] = out["kind"].astype(int)
+    out.update({k: np.zeros(0, dtype=int if k in INT_COLUMNS else float) for k in SCALAR_COLUMNS})
     return out
 
 
-def _assemble(rows: list[tuple]) -> dict[str, np.ndarray]:
-    """rows: (a, b, kind, centroid, cop, cop_static, n, f, area, phi), already oriented a -> b."""
+def _assemble(rows: list[tuple], ages=None) -> dict[str, np.ndarray]:
+    """rows: (a, b, kind, centroid, cop, cop_static, n, f, area, phi), already oriented
+    a -> b; ages: static_age per row (None: all 0). Three array conversions in all (a
+    step's record is a few rows: per-call overhead is what costs)."""
     if not rows:
         return empty_columns()
-    a, b, kind, centroid, cop, cop_static, n, f, area, phi = (np.asarray(c) for c in zip(*rows))
+    cols = tuple(zip(*rows))
+    ints = np.array(cols[0:3], dtype=int)  # (3, k)
+    vec = np.array(cols[3:8], dtype=float).reshape(5, -1, 3)  # (5, k, 3)
+    scal = np.array(cols[8:10], dtype=float)  # (2, k)
+    f, n = vec[4], vec[3]
     fn, ft = split_force(f, n)
     return {
-        "a": a.astype(int), "b": b.astype(int), "kind": kind.astype(int),
-        "p_W_centroid": centroid.reshape(-1, 3), "p_W_cop": cop.reshape(-1, 3),
-        "p_W_cop_static": cop_static.reshape(-1, 3),
-        "n_W": n.reshape(-1, 3), "f_W": f.reshape(-1, 3), "fn": fn, "ft_W": ft.reshape(-1, 3),
-        "area": area.astype(float), "phi": phi.astype(float),
+        "a": ints[0], "b": ints[1], "kind": ints[2],
+        "p_W_centroid": vec[0], "p_W_cop": vec[1], "p_W_cop_static": vec[2],
+        "n_W": n, "f_W": f, "fn": fn, "ft_W": ft, "area": scal[0], "phi": scal[1],
+        "static_age": np.zeros(len(ints[0]), dtype=int) if ages is None else np.array(ages, dtype=int),
     }
+
+
+class StaticHold:
+    """Each pair's static columns (pressure-weighted CoP and normal, a -> b), read from its
+    surface's faces at most every `every` steps and held in between.
+
+    Drake 1.51's bindings read a contact surface one face at a time (four calls per face,
+    testbed.contact_geometry.surface_face_arrays): ~0.15 ms for a 70-face
+    container-container surface, more than everything else a step's record costs. The
+    driving answer (centroid, wrench, CoP on its line of action, area) stays exact every
+    step; `static_age` says how old the static columns of a row are. every=1 reads the
+    faces every step. A pair seen for the first time (or again after a gap of `every`
+    steps or more) is read at once.
+    """
+
+    def __init__(self, every: int = 1):
+        self.every = max(int(every), 1)
+        self._held: dict = {}  # (a, b) -> (step, cop (3,), normal (3,) a -> b)
+
+    def get(self, key, step: int, surface, sign: float):
+        """(cop (3,) [m], normal (3,) a -> b, age [steps]) of pair `key` at `step`."""
+        held = self._held.get(key)
+        if held is None or not 0 <= step - held[0] < self.every:
+            static = static_pressure(surface_face_arrays(surface))
+            held = self._held[key] = (step, static.cop, sign * static.normal)
+        return held[1], held[2], step - held[0]
 
 
 NEAR_DISTANCE = 1e-3  # [m] pairs closer than this get a signed distance each step
+_BOXES: dict = {}  # geometry-id tuple -> testbed.box_geometry.QueryBoxes (read once per scene)
 
 
 def near_distances(query) -> dict:
-    """{frozenset(GeometryId, GeometryId): signed distance [m]} for pairs within NEAR_DISTANCE."""
-    return {
-        frozenset((pair.id_A, pair.id_B)): pair.distance
-        for pair in query.ComputeSignedDistancePairwiseClosestPoints(NEAR_DISTANCE)
-    }
+    """{frozenset(GeometryId, GeometryId): signed distance [m]} for pairs within NEAR_DISTANCE.
+
+    Closed-form box geometry (testbed/box_geometry.py), bounded time per call: Drake's
+    generic ComputeSignedDistancePairwiseClosestPoints hangs (FCL GJK) or raises (libccd)
+    against the quay slab once a container slides. Penetrating pairs get the exact depth;
+    a separated box-box pair gets the separating-axis lower bound on its distance.
+    """
+    from testbed.box_geometry import QueryBoxes
+
+    key = tuple(query.inspector().GetAllGeometryIds())
+    boxes = _BOXES.get(key)
+    if boxes is None:
+        if len(_BOXES) > 64:  # many scenes in one process (studies): keep the cache small
+            _BOXES.clear()
+        boxes = _BOXES[key] = QueryBoxes(query)
+    return boxes.near(query, NEAR_DISTANCE)
 
 
 def _signed_distance(distances: dict, id_1, id_2) -> float:
@@ -78,22 +124,29 @@ def _orient(owner, id_from, id_to):
     return (i, j, 1.0) if i < j else (j, i, -1.0)
 
 
-def from_contact_results(results, distances: dict, owner: dict) -> dict[str, np.ndarray]:
+def from_contact_results(results, distances: dict, owner: dict, *, hold: StaticHold | None = None,
+                         step: int = 0) -> dict[str, np.ndarray]:
     """Rows of the driving model's answer, from a ContactResults and `near_distances` of
-    the same state."""
-    rows = []
+    the same state. hold: where the static columns come from (None: the faces of every
+    surface, every call); step: this state's step number (for hold)."""
+    rows, ages = [], []
     for i in range(results.num_hydroelastic_contacts()):
         info = results.hydroelastic_contact_info(i)
         surface = info.contact_surface()
         id_M, id_N = surface.id_M(), surface.id_N()
         a, b, sign = _orient(owner, id_N, id_M)  # normals point out of N into M
         F = info.F_Ac_W()  # on M's body, at the centroid
-        f_M, tau_M = F.translational(), F.rotational()
+        f_M = F.translational()
         centroid = surface.centroid()
-        cop = point_on_line_of_action(centroid, f_M, tau_M)
-        static = static_pressure(surface_face_arrays(surface))
-        rows.append((a, b, HYDRO, centroid, cop, static.cop, sign * static.normal, sign * f_M,
+        if hold is None:
+            static = static_pressure(surface_face_arrays(surface))
+            cop_static, normal, age = static.cop, sign * static.normal, 0
+        else:
+            cop_static, normal, age = hold.get((a, b), step, surface, sign)
+        # the p_W_cop slot carries the torque on b about the centroid until _assemble is done
+        rows.append((a, b, HYDRO, centroid, sign * F.rotational(), cop_static, normal, sign * f_M,
                      surface.total_area(), _signed_distance(distances, id_M, id_N)))
+        ages.append(age)
     for i in range(results.num_point_pair_contacts()):
         info = results.point_pair_contact_info(i)
         pair = info.point_pair()
@@ -101,7 +154,12 @@ def from_contact_results(results, distances: dict, owner: dict) -> dict[str, np.
         point = info.contact_point()
         f_B = info.contact_force()  # on B
         rows.append((a, b, POINT, point, point, point, sign * pair.nhat_BA_W, -sign * f_B, 0.0, -pair.depth))
-    return _assemble(rows)
+        ages.append(0)
+    out = _assemble(rows, ages)
+    h = out["kind"] == HYDRO  # centres of pressure of the hydroelastic rows, one vectorised call
+    if np.any(h):
+        out["p_W_cop"][h] = point_on_line_of_action(out["p_W_centroid"][h], out["f_W"][h], out["p_W_cop"][h])
+    return out
 
 
 def point_pairs_from_query(query, owner: dict, stiffness: dict) -> dict[str, np.ndarray]:

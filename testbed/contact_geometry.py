@@ -6,9 +6,11 @@ Conventions used across the testbed (records, labels, comparison):
   plant (the ground before every container, then containers in scene order).
 - Points and normals are in the world frame W unless a name says otherwise.
 
-Drake 1.51.1's Python bindings give no bulk array view of a contact-surface mesh, so
-`surface_face_arrays` reads each polygon with four binding calls (a list
-comprehension, ~4 us per face); every computation after that is numpy on whole arrays.
+Drake 1.51.1's Python bindings give no bulk array view of a contact-surface mesh (the
+polygon mesh's vertices are not shared between faces either, so reading vertices costs
+as much), so `surface_face_arrays` reads each polygon with four binding calls (~2 us
+per face); every computation after that is numpy on whole arrays. Callers that need it
+every step hold the result (testbed.contact_extraction.StaticHold).
 """
 
 from __future__ import annotations
@@ -53,12 +55,8 @@ def surface_face_arrays(surface) -> SurfaceFaces:
         mesh, field = surface.tri_mesh_W(), surface.tri_e_MN()
     else:
         mesh, field = surface.poly_mesh_W(), surface.poly_e_MN()
-    n = mesh.num_elements()
-    rows = [
-        (mesh.area(f), mesh.face_normal(f), c, field.EvaluateCartesian(f, c))
-        for f in range(n)
-        for c in (mesh.element_centroid(f),)
-    ]
+    area, normal, centroid, evaluate = mesh.area, mesh.face_normal, mesh.element_centroid, field.EvaluateCartesian
+    rows = [(area(f), normal(f), c, evaluate(f, c)) for f in range(mesh.num_elements()) for c in (centroid(f),)]
     if not rows:
         z = np.zeros((0, 3))
         return SurfaceFaces(np.zeros(0), z, z, np.zeros(0))
@@ -86,26 +84,50 @@ def static_pressure(faces: SurfaceFaces) -> StaticPressure:
     return StaticPressure(cop, normal, force, area, centroid)
 
 
+_NEXT, _PREV = [1, 2, 0], [2, 0, 1]
+
+
 def cross(u, v) -> np.ndarray:
     """Cross product of (..., 3) arrays; np.cross costs ~30 us of overhead on tiny arrays."""
     u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
-    return np.stack(
-        [u[..., 1] * v[..., 2] - u[..., 2] * v[..., 1],
-         u[..., 2] * v[..., 0] - u[..., 0] * v[..., 2],
-         u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]],
-        axis=-1,
-    )
+    return u[..., _NEXT] * v[..., _PREV] - u[..., _PREV] * v[..., _NEXT]
+
+
+def quaternion_from_rotation(R) -> np.ndarray:
+    """(..., 3, 3) rotation matrices -> (..., 4) unit quaternions (w, x, y, z), w >= 0 (the
+    sign RotationMatrix.ToQuaternion returns); Shepperd's method, vectorised: one call
+    for a whole run's rows instead of a binding call per body per step."""
+    R = np.asarray(R, dtype=float)
+    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
+    cand = np.stack([trace, R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]], axis=-1)
+    k = np.argmax(cand, axis=-1)  # the largest of 4w^2 - 1, 4x^2 - 1, ... (well conditioned)
+    s = 2.0 * np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(cand, k[..., None], -1)[..., 0] - trace, 1e-300))
+    d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
+    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]
+    options = np.stack([np.stack([0.25 * s, d21 / s, d02 / s, d10 / s], -1),
+                        np.stack([d21 / s, 0.25 * s, s01 / s, s02 / s], -1),
+                        np.stack([d02 / s, s01 / s, 0.25 * s, s12 / s], -1),
+                        np.stack([d10 / s, s02 / s, s12 / s, 0.25 * s], -1)], -2)  # (..., 4 cases, 4)
+    q = np.take_along_axis(options, k[..., None, None], -2)[..., 0, :]
+    q = q * np.where(q[..., :1] < 0.0, -1.0, 1.0)
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
 
 
 def rotation_from_quaternion(q) -> np.ndarray:
     """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
     q = np.asarray(q, dtype=float)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
-    ], axis=-2)
+    R = np.empty(q.shape[:-1] + (3, 3))
+    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
+    R[..., 0, 1] = 2 * (x * y - w * z)
+    R[..., 0, 2] = 2 * (x * z + w * y)
+    R[..., 1, 0] = 2 * (x * y + w * z)
+    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
+    R[..., 1, 2] = 2 * (y * z - w * x)
+    R[..., 2, 0] = 2 * (x * z - w * y)
+    R[..., 2, 1] = 2 * (y * z + w * x)
+    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
+    return R
 
 
 def point_on_line_of_action(p_WC, f_W, tau_W) -> np.ndarray:

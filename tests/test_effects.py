@@ -3,6 +3,7 @@
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from testbed import build_scene, load_scenario
@@ -40,7 +41,9 @@ def test_each_effect_adds_exactly_its_systems(effect):
 
 
 def test_every_registered_effect_is_covered_here():
-    assert set(registry()) <= set(OWN_SYSTEMS) | {"learned_contact", "meshcat"}
+    # learned_contact and meshcat: tested below and in test_meshcat.py; learned_dynamics
+    # (the closed loop) needs a container stack and is tested in test_closed_loop.py
+    assert set(registry()) <= set(OWN_SYSTEMS) | {"learned_contact", "meshcat", "learned_dynamics"}
 
 
 def _proximity_geometries(scene):
@@ -101,3 +104,24 @@ def test_predictor_inference_is_light():
             "print('ok')")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
+
+
+def test_learned_contact_reads_the_logger_through_its_public_api():
+    """learned_contact predicts for every container pair the logger recorded, every step,
+    and compares where the logger's static columns are fresh (static_age == 0)."""
+    from testbed.effects.learned_contact import MIN_PENETRATION
+    from testbed.simulation import run_scenario
+
+    result = run_scenario(load_scenario("two_stack", overrides=["effects.learned_contact={}"]), duration=0.05)
+    contacts, learned = result.tables["contacts"], result.tables["learned"]
+    pair = (contacts["a"] == 1) & (contacts["b"] == 2) & (contacts["phi"] < -MIN_PENETRATION)
+    assert np.array_equal(np.unique(learned["step"]), np.unique(contacts["step"][pair]))  # every step
+    assert np.all(learned["a"] == 1) and np.all(learned["b"] == 2)
+    fresh = contacts["static_age"][pair] == 0
+    assert fresh.sum() >= 4 and (~fresh).sum() >= 4  # 50 steps, static columns read every 10
+    errors = learned["point_error"]
+    assert np.all(np.isfinite(errors) == fresh) and np.all(np.isfinite(learned["normal_error_deg"]) == fresh)
+    # the shipped predictor on a resting 20 ft pair: within the stacking gate's p95 (0.15 m)
+    assert np.nanmax(errors) < 0.15
+    np.testing.assert_allclose(np.linalg.norm(learned["n_W_pred"], axis=1), 1.0, atol=1e-9)
+    assert result.summary["learned_rows"] == len(learned["a"])

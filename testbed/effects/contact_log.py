@@ -9,6 +9,12 @@ Adds one system, `contact_logger`, that publishes every time step and records:
   energy of every free container;
 - `contacts` table: the driving model's answer for every contacting pair
   (testbed/contact_extraction.py lists the columns) plus both bodies' poses.
+
+Other systems read the contacts as they are recorded through `latest_contacts()` and
+`contacts_after(step)` (the learned_contact probe does), never the builder itself.
+The static columns (p_W_cop_static, n_W of hydroelastic rows) are read from each
+surface's faces every `static_every_steps` steps and held in between (`static_age` says
+how old they are): see contact_extraction.StaticHold for why.
 """
 
 
@@ -21,12 +27,11 @@ from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
 from testbed import contact_extraction
-from testbed.contact_geometry import cross, rotation_from_quaternion
+from testbed.contact_geometry import cross, quaternion_from_rotation
 from testbed.effects import register
 from testbed.effects.base import Effect
+from testbed.physics import GRAVITY  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 from testbed.records import TableBuilder
-
-GRAVITY = 9.81  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 
 
 @dataclasses.dataclass
@@ -35,19 +40,23 @@ class ContactLogConfig:
     # at, e.g., 10 ms without losing what they are judged on; each logged row still
     # pairs contacts with the poses of the state they were computed from.
     every_steps: int = 1
+    # Read each hydroelastic surface's faces (pressure-weighted CoP and normal, the
+    # static columns) every `static_every_steps` logged steps; held in between and marked
+    # by `static_age`. 1 = every step (exact, ~0.15 ms per container-container surface).
+    static_every_steps: int = 10
 
 
 def _pose_columns(poses) -> tuple[np.ndarray, np.ndarray]:
-    """poses: list of RigidTransform -> p (n, 3) [m], quaternion wxyz (n, 4)."""
-    p = np.array([X.translation() for X in poses])
-    q = np.array([X.rotation().ToQuaternion().wxyz() for X in poses])
-    return p, q
+    """poses: list of RigidTransform -> p (n, 3) [m], R (n, 3, 3) (one binding call per
+    pose; the records' quaternions are computed once, in tables())."""
+    M = np.array([X.GetAsMatrix34() for X in poses]).reshape(-1, 3, 4)
+    return M[:, :, 3], M[:, :, :3]
 
 
 class ContactLogger(LeafSystem):
     """Records steps and contacts at every plant time step (a periodic publish)."""
 
-    def __init__(self, assembly, every_steps: int = 1):
+    def __init__(self, assembly, every_steps: int = 1, static_every_steps: int = 1):
         super().__init__()
         self.set_name("contact_logger")
         plant = assembly.plant
@@ -79,6 +88,7 @@ class ContactLogger(LeafSystem):
         self.contacts = TableBuilder()
         self._sampled = plant.has_sampled_output_ports()
         self._every = every_steps
+        self._hold = contact_extraction.StaticHold(static_every_steps * every_steps)  # in plant steps
         self._pending = None
         self._h = h = plant.time_step()
         period = every_steps * h
@@ -95,19 +105,17 @@ class ContactLogger(LeafSystem):
     def _geometry(self, context):
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.builder import geometry_body_index
+            from testbed.geometry_index import geometry_body_index
 
             self._owner = geometry_body_index(self._assembly, query)
         poses = self._poses_port.Eval(context)
         velocities = self._velocities_port.Eval(context)
-        p, q = _pose_columns([poses[i] for i in self._plant_bodies])  # (nb, 3), (nb, 4)
-        V = np.array([np.concatenate([velocities[i].rotational(), velocities[i].translational()])
-                      for i in self._free_body_index]).reshape(-1, 6)
-        R_all = rotation_from_quaternion(q)  # (nb, 3, 3)
+        p, R_all = _pose_columns([poses[i] for i in self._plant_bodies])  # (nb, 3), (nb, 3, 3)
+        V = np.array([velocities[i].get_coeffs() for i in self._free_body_index]).reshape(-1, 6)  # [w, v]
         step = int(round(context.get_time() / self._h))  # simulation step number
         free = self._free
-        self.steps.append((step, context.get_time(), p[free], q[free], V, *self._energy(p[free], R_all[free], V)))
-        return (step, context.get_time(), p, q, R_all, contact_extraction.near_distances(query))
+        self.steps.append((step, context.get_time(), p[free], V, R_all[free]))  # q, energy: in tables()
+        return (step, context.get_time(), p, R_all, contact_extraction.near_distances(query))
 
     def _record(self, context) -> None:
         if not self._sampled:  # unsampled ports: the results belong to this very state
@@ -122,33 +130,54 @@ class ContactLogger(LeafSystem):
             self._append_contacts(context, geometry)
 
     def _append_contacts(self, context, geometry) -> None:
-        step, t, p, q, R_all, distances = geometry
-        columns = contact_extraction.from_contact_results(self._results_port.Eval(context), distances, self._owner)
-        columns["p_WA"], columns["q_WA"] = p[columns["a"]], q[columns["a"]]
-        columns["p_WB"], columns["q_WB"] = p[columns["b"]], q[columns["b"]]
+        step, t, p, R_all, distances = geometry
+        columns = contact_extraction.from_contact_results(self._results_port.Eval(context), distances, self._owner,
+                                                          hold=self._hold, step=step)
+        # R_WA, R_WB (k, 3, 3) while running (what readers need); the table stores q_WA, q_WB
+        columns["p_WA"], columns["R_WA"] = p[columns["a"]], R_all[columns["a"]]
+        columns["p_WB"], columns["R_WB"] = p[columns["b"]], R_all[columns["b"]]
         self.contacts.append(step, t, columns)
 
+    def latest_contacts(self) -> tuple[int, float, dict] | None:
+        """(step, time, columns) of the most recent step with contacts, or None; columns
+        as in contact_extraction plus p_WA, p_WB (k, 3) [m] and R_WA, R_WB (k, 3, 3) (the
+        contacts table turns these into quaternions q_WA, q_WB)."""
+        return self.contacts.latest()
+
+    def contacts_after(self, step: int) -> list[tuple[int, float, dict]]:
+        """[(step, time, columns)] of the recorded steps after `step`, oldest first."""
+        return [(int(c["step"][0]), float(c["time"][0]), c) for c in self.contacts.chunks_after_step(step)]
+
     def _energy(self, p_WBo, R_WB, V_WB):
-        """Kinetic and potential energy [J] of the free containers (sums over bodies)."""
-        w, v_Bo = V_WB[:, :3], V_WB[:, 3:]
-        p_BoBcm_W = np.einsum("nij,nj->ni", R_WB, self._com_B)
+        """Kinetic and potential energy [J] of the free containers, summed over bodies, for
+        T logged steps at once: p_WBo (T, m, 3) [m], R_WB (T, m, 3, 3), V_WB (T, m, 6)
+        [rad/s, m/s] (w, v of the body origin, in W). Returns two (T,) arrays."""
+        w, v_Bo = V_WB[..., :3], V_WB[..., 3:]
+        p_BoBcm_W = np.einsum("tnij,nj->tni", R_WB, self._com_B)
         v_cm = v_Bo + cross(w, p_BoBcm_W)
-        I_W = np.einsum("nij,njk,nlk->nil", R_WB, self._I_Bcm_B, R_WB)
-        kinetic = 0.5 * np.sum(self._mass * np.einsum("ni,ni->n", v_cm, v_cm)) + 0.5 * np.einsum("ni,nij,nj->", w, I_W, w)
-        potential = GRAVITY * np.sum(self._mass * (p_WBo[:, 2] + p_BoBcm_W[:, 2]))
+        I_W = R_WB @ self._I_Bcm_B @ np.swapaxes(R_WB, -1, -2)  # (T, m, 3, 3)
+        Iw = np.einsum("tnij,tnj->tni", I_W, w)
+        kinetic = 0.5 * np.einsum("n,tni,tni->t", self._mass, v_cm, v_cm) + 0.5 * np.einsum("tni,tni->t", w, Iw)
+        potential = GRAVITY * np.einsum("n,tn->t", self._mass, p_WBo[..., 2] + p_BoBcm_W[..., 2])
         return kinetic, potential
 
     def tables(self) -> dict[str, dict]:
         m = len(self._free)
         if self.steps:
-            k, t, p, q, V, ke, pe = (np.asarray(x) for x in zip(*self.steps))
+            k, t, p, V, R = (np.asarray(x) for x in zip(*self.steps))
+            V, R = V.reshape(len(k), m, 6), R.reshape(len(k), m, 3, 3)
+            q = quaternion_from_rotation(R)
+            ke, pe = self._energy(p.reshape(len(k), m, 3), R, V)
         else:
             k, t, p, q, V, ke, pe = (np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, m, 3)), np.zeros((0, m, 4)),
                                      np.zeros((0, m, 6)), np.zeros(0), np.zeros(0))
         steps = {"step": k, "time": t, "p_WB": p, "q_WB": q, "V_WB": V, "kinetic_energy": ke, "potential_energy": pe}
         empty = contact_extraction.empty_columns()
-        empty.update(p_WA=np.zeros((0, 3)), q_WA=np.zeros((0, 4)), p_WB=np.zeros((0, 3)), q_WB=np.zeros((0, 4)))
-        return {"steps": steps, "contacts": self.contacts.build(empty)}
+        empty.update(p_WA=np.zeros((0, 3)), R_WA=np.zeros((0, 3, 3)), p_WB=np.zeros((0, 3)), R_WB=np.zeros((0, 3, 3)))
+        contacts = self.contacts.build(empty)
+        contacts["q_WA"] = quaternion_from_rotation(contacts.pop("R_WA")).reshape(-1, 4)
+        contacts["q_WB"] = quaternion_from_rotation(contacts.pop("R_WB")).reshape(-1, 4)
+        return {"steps": steps, "contacts": contacts}
 
 
 @register
@@ -161,9 +190,12 @@ class ContactLogEffect(Effect):
         super().check(effects)
         if not (isinstance(self.config.every_steps, int) and self.config.every_steps >= 1):
             raise self.fail("every_steps", f"expected a whole number of steps >= 1, got {self.config.every_steps}")
+        if not (isinstance(self.config.static_every_steps, int) and self.config.static_every_steps >= 1):
+            raise self.fail("static_every_steps",
+                            f"expected a whole number of logged steps >= 1, got {self.config.static_every_steps}")
 
     def add_systems(self, assembly) -> list:
-        self.logger = ContactLogger(assembly, self.config.every_steps)
+        self.logger = ContactLogger(assembly, self.config.every_steps, self.config.static_every_steps)
         return [self.logger]
 
     def collect(self, tables: dict[str, dict]) -> None:

@@ -1,18 +1,21 @@
 """`learned_contact`: the learned predictor's answer next to the ground truth, every step.
 
-Adds one system, `learned_contact_probe`, publishing every time step right after the
-contact logger (it needs `contact_log`). For every container-container pair the
-logger recorded at that step, it asks the predictor (learned_contact.load_predictor,
-pure numpy) for the contact point and normal from the two bodies' poses, in one
-batched call per step, and records the `learned` table:
+Adds one system, `learned_contact_probe`, publishing every time step (it needs
+`contact_log`). For every container-container pair the logger recorded at each step
+(ContactLogger.contacts_after), it asks the predictor (learned_contact.load_predictor:
+"improved", "paper" or a weights path; compiled) for the contact point and normal from
+the two bodies' poses, one batched call per BATCH_STEPS recorded steps, and records the
+`learned` table, one row per pair per step:
 
   step, time, a, b     as in the contacts table (A = body a, B = body b)
   p_W_pred (k, 3) [m]  predicted contact point in W
   n_W_pred (k, 3)      predicted unit normal, a -> b, in W
   point_error (k,) [m] |p_W_pred - p_W_cop_static| against the driving model's answer
                        (the pressure-weighted centroid: the definition the predictor is
-                       trained for; for point contact, the contact point)
-  normal_error_deg (k,) angle between n_W_pred and the driving model's n_W
+                       trained for; for point contact, the contact point); NaN where the
+                       logger's static columns are held from an earlier step
+                       (static_age > 0, see contact_log's static_every_steps)
+  normal_error_deg (k,) angle between n_W_pred and the driving model's n_W (NaN likewise)
   shadow_point_error, shadow_normal_error_deg (k,)  the same against the shadow
                        model's answer on the same state (NaN where none)
 
@@ -28,8 +31,7 @@ import typing
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from testbed.containers import CONTAINER_TYPES
-from testbed.contact_geometry import angle_between, rotation_from_quaternion
+from testbed.contact_geometry import angle_between
 from testbed.effects import register
 from testbed.effects.base import Effect
 from testbed.effects.contact import driving_kind
@@ -37,11 +39,17 @@ from testbed.records import TableBuilder
 
 
 MIN_PENETRATION = 1e-6  # [m]
+# Recorded steps predicted per predictor call: one batched call amortises the per-call
+# cost; the `learned` rows lag the simulation by at most this many steps until collect().
+# A scene with a live viewer (the meshcat effect) gets every step's answer on time (1).
+BATCH_STEPS = 10
 
 
 @dataclasses.dataclass
 class LearnedContactConfig:
-    weights: typing.Optional[str] = None  # predictor file; None = the shipped default
+    # "improved" (the shipped default), "paper", or the path of a weights file whose
+    # recorded kind picks the predictor (learned_contact.load_predictor)
+    weights: typing.Optional[str] = None
 
 
 def _empty() -> dict:
@@ -51,34 +59,51 @@ def _empty() -> dict:
 
 
 class LearnedContactProbe(LeafSystem):
-    def __init__(self, assembly, predictor, logger, shadow_probe):
+    def __init__(self, assembly, predictor, logger, shadow_probe, batch_steps: int = BATCH_STEPS):
         super().__init__()
         self.set_name("learned_contact_probe")
         self._predictor = predictor
         self._logger = logger
         self._shadow = shadow_probe
         names = assembly.body_names
-        size_of = {c.name: CONTAINER_TYPES[c.type].size for c in assembly.scenario.containers}
+        size_of = {c.name: c.container_type().size for c in assembly.scenario.containers}
         self._sizes = np.array([size_of.get(n, (np.nan,) * 3) for n in names])  # (nb, 3) [m]
         self._is_container = np.array([n in size_of for n in names])
-        self._last_step = -1
+        self.last_step = -1  # the last contacts step processed
+        self._batch = batch_steps
         self.table = TableBuilder()
         assembly.builder.AddSystem(self)
         self.DeclarePeriodicPublishEvent(assembly.plant.time_step(), 0.0, self._on_step)
 
     def _on_step(self, context) -> None:
-        latest = self._logger.contacts.latest()
-        if latest is not None and latest[0] > self._last_step:
-            self.process(*latest)
+        latest = self._logger.latest_contacts()
+        # a batch of BATCH_STEPS recorded steps per predictor call (publish order within one
+        # time is not fixed, so the steps are read from the logger, never assumed)
+        if latest is not None and latest[0] - self.last_step >= self._batch:
+            self.catch_up()
+
+    def catch_up(self) -> None:
+        """Predicts for every step the logger recorded since the last call, in one batch."""
+        self.process_steps(self._logger.contacts_after(self.last_step))
 
     def process(self, step: int, time: float, rows: dict) -> None:
         """Predicts for the container pairs among `rows` (one step of the contacts table)."""
-        self._last_step = step
+        self.process_steps([(step, time, rows)])
+
+    def process_steps(self, steps: list) -> None:
+        """Predicts for the container pairs among [(step, time, rows)] (steps of the
+        contacts table, oldest first) with one predictor call, and appends one chunk per step."""
+        if not steps:
+            return
+        self.last_step = steps[-1][0]
+        names = ("a", "b", "phi", "p_WA", "R_WA", "p_WB", "R_WB", "p_W_cop_static", "n_W", "static_age")
+        rows = {k: np.concatenate([r[k] for _, _, r in steps]) for k in names}
+        owner = np.repeat(np.arange(len(steps)), [len(r["a"]) for _, _, r in steps])  # row -> index in steps
         keep = self._is_container[rows["a"]] & self._is_container[rows["b"]] & (rows["phi"] < -MIN_PENETRATION)
         if not np.any(keep):
             return
-        a, b = rows["a"][keep], rows["b"][keep]
-        R_WA, R_WB = rotation_from_quaternion(rows["q_WA"][keep]), rotation_from_quaternion(rows["q_WB"][keep])
+        a, b, owner = rows["a"][keep], rows["b"][keep], owner[keep]
+        R_WA, R_WB = rows["R_WA"][keep], rows["R_WB"][keep]
         p_WA = rows["p_WA"][keep]
         R_AW = np.transpose(R_WA, (0, 2, 1))
         p_AB = np.einsum("nij,nj->ni", R_AW, rows["p_WB"][keep] - p_WA)  # (k, 3) in A [m]
@@ -86,13 +111,19 @@ class LearnedContactProbe(LeafSystem):
         point_A, normal_A = self._predictor.predict(p_AB, R_AB, size_A=self._sizes[a], size_B=self._sizes[b])
         p_W = p_WA + np.einsum("nij,nj->ni", R_WA, point_A)
         n_W = np.einsum("nij,nj->ni", R_WA, normal_A)
+        fresh = rows["static_age"][keep] == 0  # static columns computed on this state
         columns = {
             "a": a, "b": b, "p_W_pred": p_W, "n_W_pred": n_W,
-            "point_error": np.linalg.norm(p_W - rows["p_W_cop_static"][keep], axis=1),
-            "normal_error_deg": np.degrees(angle_between(n_W, rows["n_W"][keep])),
+            "point_error": np.where(fresh, np.linalg.norm(p_W - rows["p_W_cop_static"][keep], axis=1), np.nan),
+            "normal_error_deg": np.where(fresh, np.degrees(angle_between(n_W, rows["n_W"][keep])), np.nan),
         }
-        columns.update(self._against_shadow(step, a, b, p_W, n_W))
-        self.table.append(step, time, columns)
+        bounds = np.searchsorted(owner, np.arange(len(steps) + 1))
+        for i, (step, time, _) in enumerate(steps):
+            lo, hi = bounds[i], bounds[i + 1]
+            if hi > lo:
+                chunk = {k: v[lo:hi] for k, v in columns.items()}
+                chunk.update(self._against_shadow(step, chunk["a"], chunk["b"], chunk["p_W_pred"], chunk["n_W_pred"]))
+                self.table.append(step, time, chunk)
 
     def _against_shadow(self, step, a, b, p_W, n_W) -> dict:
         point_error = np.full(len(a), np.nan)
@@ -137,18 +168,40 @@ class LearnedContactEffect(Effect):
     requires = ("contact", "contact_log")
 
     def add_systems(self, assembly) -> list:
-        from learned_contact import load_predictor  # numpy-only inference; no torch
+        from learned_contact import load_predictor  # compiled (numba) inference; no torch
 
-        predictor = load_predictor(self.config.weights) if self.config.weights else load_predictor()
+        predictor = load_predictor(self.config.weights)
+        self._check_sizes(predictor)
         logger = assembly.effects["contact_log"].logger
         shadow = assembly.effects.get("shadow_contact")
-        self.probe = LearnedContactProbe(assembly, predictor, logger, shadow.probe if shadow else None)
+        live = getattr(self.scenario.effects, "meshcat", None) is not None  # draws each step as it happens
+        self.probe = LearnedContactProbe(assembly, predictor, logger, shadow.probe if shadow else None,
+                                         batch_steps=1 if live else BATCH_STEPS)
         return [self.probe]
 
+    def _check_sizes(self, predictor) -> None:
+        """A scene body the predictor was not trained for (e.g. a generic box) fails at build
+        time with the entry and the supported sizes named, not mid-run."""
+        from learned_contact.interface import SIZE_TOLERANCE
+
+        supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
+        for i, c in enumerate(self.scenario.containers):
+            size = np.asarray(c.container_type().size, dtype=float)
+            if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE:
+                choices = "; ".join(str(tuple(float(v) for v in s)) for s in supported)
+                raise self.fail("", f"containers[{i}] ({c.name!r}, type {c.type}, size {tuple(float(v) for v in size)} m) "
+                                    f"is not a size the learned predictor supports (full extents [m]: {choices}); "
+                                    "remove effects.learned_contact or use a supported size")
+
+    @property
+    def predictions(self):
+        """The `learned` rows as they are recorded (a records.TableBuilder; None before
+        the scene is built); the Meshcat overlay reads it."""
+        probe = getattr(self, "probe", None)
+        return probe.table if probe is not None else None
+
     def collect(self, tables: dict) -> None:
-        # rows the logger appended after the probe's last publish (the final step)
-        for chunk in self.probe._logger.contacts.chunks_after_step(self.probe._last_step):
-            self.probe.process(int(chunk["step"][0]), float(chunk["time"][0]), chunk)
+        self.probe.catch_up()
         tables["learned"] = self.probe.table.build(_empty())
 
     def summarize(self, tables: dict) -> dict:

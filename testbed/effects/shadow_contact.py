@@ -49,7 +49,7 @@ class ShadowContactProbe(LeafSystem):
     def _record(self, context) -> None:
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.builder import geometry_body_index
+            from testbed.geometry_index import geometry_body_index
 
             self._owner = geometry_body_index(self._assembly, query)
             self._stiffness = contact_extraction.point_stiffness(query)

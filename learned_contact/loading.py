@@ -1,0 +1,134 @@
+"""Loading predictors by name or weights file: `load_predictor`.
+
+    load_predictor()                   # "improved": shipped/weights.npz
+    load_predictor("paper")            # shipped/paper_weights.npz
+    load_predictor("my/weights.npz")   # the class named by the file's `kind` field
+
+A weights file is an .npz with: format_version (int, FORMAT_VERSION), kind ("improved"
+or "paper"), supported_sizes (k, 3) full extents [m], meta (JSON string) and the network
+under mlp/ (x_mean, x_std, activation, W0.., b0..; W_i (in, out)). Files written before
+`kind` existed are recognised by their arrays (the improved file has supported_sizes,
+the paper file a 6-input network and no version).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from learned_contact.base import FORMAT_VERSION
+from learned_contact.errors import WeightsError
+from learned_contact.mlp import ACTIVATIONS, NumpyMLP
+from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
+
+SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}
+# kind -> (input width, output width) of its network
+SHAPES = {"improved": (91, 6), "paper": (6, 4)}
+LEGACY_PAPER_TYPES = ("1CC", "1AA", "1AAA")  # the shipped paper file's training sizes
+
+
+def _classes() -> dict:
+    from learned_contact.paper_mlp import PaperPredictor
+
+    return {"improved": ContactPredictor, "paper": PaperPredictor}
+
+
+def resolve(name_or_path) -> Path:
+    """The weights file of a predictor name ("improved", "paper") or path (None: improved)."""
+    if name_or_path is None:
+        return SHIPPED["improved"]
+    if isinstance(name_or_path, str) and name_or_path in SHIPPED:
+        return SHIPPED[name_or_path]
+    return Path(name_or_path)
+
+
+def _fail(path, field, problem, expected) -> WeightsError:
+    return WeightsError(f"weights file {path}: field {field!r} {problem}; expected {expected}")
+
+
+def read_arrays(path: Path) -> dict:
+    if not path.is_file():
+        raise WeightsError(f"weights file {path} not found; give 'improved', 'paper' or the path of an .npz "
+                           "(train one with learned_contact.training.train_default)")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {k: data[k] for k in data.files}
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is the same error
+        raise WeightsError(f"cannot read weights file {path}: {exc}; expected an .npz written by "
+                           "a predictor's save()") from exc
+
+
+def infer_kind(arrays: dict, path) -> str:
+    """The recorded kind, or for files from before `kind` existed, the one their arrays show."""
+    if "kind" in arrays:
+        kind = str(arrays["kind"])
+        if kind not in SHAPES:
+            raise _fail(path, "kind", f"is {kind!r}", f"one of {sorted(SHAPES)}")
+        return kind
+    if "mlp/W0" not in arrays:
+        raise _fail(path, "kind", "is missing and there is no network (mlp/W0)", "a predictor weights file")
+    if "supported_sizes" in arrays:
+        return "improved"
+    if arrays["mlp/W0"].shape[0] == SHAPES["paper"][0]:
+        return "paper"
+    raise _fail(path, "kind", "is missing and cannot be inferred", f"one of {sorted(SHAPES)}")
+
+
+def _mlp(arrays: dict, path, kind: str) -> NumpyMLP:
+    n = sum(1 for k in arrays if k.startswith("mlp/W"))
+    for field in ["mlp/x_mean", "mlp/x_std", "mlp/activation"] + [f"mlp/{p}{i}" for i in range(n) for p in "Wb"]:
+        if field not in arrays:
+            raise _fail(path, field, "is missing", f"a {kind} network with {n} layers")
+    activation = str(arrays["mlp/activation"])
+    if activation not in ACTIVATIONS:
+        raise _fail(path, "mlp/activation", f"is {activation!r}", f"one of {sorted(ACTIVATIONS)}")
+    width = SHAPES[kind][0]
+    for i in range(n):
+        W, b = arrays[f"mlp/W{i}"], arrays[f"mlp/b{i}"]
+        if W.ndim != 2 or W.shape[0] != width or b.shape != (W.shape[1],):
+            raise _fail(path, f"mlp/W{i}", f"has shape {W.shape} (bias {b.shape})",
+                        f"({width}, m) with bias (m,)")
+        width = W.shape[1]
+    if width != SHAPES[kind][1]:
+        raise _fail(path, f"mlp/W{n - 1}", f"has {width} outputs", f"{SHAPES[kind][1]} for kind {kind!r}")
+    for field in ("mlp/x_mean", "mlp/x_std"):
+        if arrays[field].shape != (SHAPES[kind][0],):
+            raise _fail(path, field, f"has shape {arrays[field].shape}", f"({SHAPES[kind][0]},)")
+    mlp = NumpyMLP.from_arrays(arrays, "mlp/")
+    if not all(np.all(np.isfinite(a)) for a in (*mlp.weights, *mlp.biases, mlp.x_mean, mlp.x_std)):
+        raise _fail(path, "mlp/*", "holds NaN or inf", "finite weights")
+    return mlp
+
+
+def load_predictor(name_or_path=None, *, compiled: bool = True):
+    """The predictor named ("improved", the default, or "paper") or stored at a path.
+
+    compiled: run the numba kernels (learned_contact.compiled; cached machine code) or,
+    False, the numpy reference path. Raises WeightsError naming the file, the field and
+    what was expected for a missing, unreadable, unknown-kind or wrong-version file.
+    """
+    path = resolve(name_or_path)
+    arrays = read_arrays(path)
+    kind = infer_kind(arrays, path)
+    legacy_paper = kind == "paper" and "format_version" not in arrays
+    version = int(arrays.get("format_version", FORMAT_VERSION if legacy_paper else -1))
+    if version != FORMAT_VERSION:
+        raise _fail(path, "format_version", f"is {version}", str(FORMAT_VERSION))
+    mlp = _mlp(arrays, path, kind)
+    if "supported_sizes" in arrays:
+        sizes = np.asarray(arrays["supported_sizes"], dtype=float)
+    elif legacy_paper:
+        from testbed.containers import CONTAINER_TYPES
+
+        sizes = np.array([CONTAINER_TYPES[t].size for t in LEGACY_PAPER_TYPES], dtype=float)
+    else:
+        raise _fail(path, "supported_sizes", "is missing", "(k, 3) full extents [m]")
+    if sizes.ndim != 2 or sizes.shape[1] != 3 or len(sizes) == 0 or not np.all(np.isfinite(sizes)):
+        raise _fail(path, "supported_sizes", f"has shape {sizes.shape}", "(k, 3) finite full extents [m]")
+    try:
+        meta = json.loads(str(arrays["meta"])) if "meta" in arrays else {}
+    except json.JSONDecodeError as exc:
+        raise _fail(path, "meta", f"is not JSON ({exc})", "a JSON object") from exc
+    return _classes()[kind](mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled)
