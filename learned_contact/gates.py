@@ -1,49 +1,149 @@
-"""Issue 3's accuracy gates, evaluated on held-out poses made on the spot.
+"""Accuracy gates of the learned predictor, evaluated on held-out poses made on the spot.
 
-`evaluate_gates(seed)` labels N_HELD_OUT stacking and general poses with sampling seeds
-10 * seed + 5 and 10 * seed + 6 (training uses + 1 and + 2), runs the predictor and
-returns {"gates": [{name, passed, value, threshold, unit, description}], "figures": ...}.
-The pytest gates (tests/test_learned_gates.py) and `testbed validate` both use it.
+Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7; training uses + 1 and + 2):
+- "stacking", "general": the training distributions, re-drawn from unused seeds;
+- "outside": poses OUTSIDE the training sampler's distribution: stacking landings
+  drawn with roll and pitch up to 10 deg (training: 5 deg) and penetration up to 5 cm
+  (training: 3 cm), of which only the poses beyond a training range are kept (a steeper
+  tilt or a deeper overlap); all of them lie in the predictor's answered domain
+  (DOMAIN_DEPTH).
+
+Two kinds of gate, and why: absolute bounds (the issue-3 thresholds) say the answer is
+good enough for a crane simulator; "vs prior" bounds say the network earns its place.
+The predictor's geometric estimate alone (its network zeroed: `geometric_prior`) and
+Drake's point contact pass two of the absolute bounds (general normal median, general
+MAE), so those alone could not catch a network that learned nothing; every "vs prior"
+gate is a ratio of the predictor's figure to the prior's on the same poses, and the
+prior scores 1.0 on each, so it fails them by construction of the bound (< 1).
+tests/test_learned_gates.py checks that every gate is failed by at least one of the
+simple alternatives (prior, Drake point contact).
+
+`evaluate_gates(seed)` returns {"gates": [{name, passed, value, threshold, unit,
+description}], "figures": ...}; the pytest gates and `testbed validate` both use it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.encodings import octant_signs, paper_outputs
+from learned_contact.encodings import canonicalise, features, octant_signs, paper_outputs
 from learned_contact.metrics import paper_table, point_normal_errors
 
 N_HELD_OUT = 400
+OUTSIDE_RANGES = {"max_tilt_deg": 10.0, "max_depth": 0.05}  # training: 5 deg, 0.03 m
+TRAINING_TILT_DEG, TRAINING_DEPTH = 5.0, 0.03
+# Every gate is failed by a simple alternative (tests/test_learned_gates.py): the prior
+# (the network zeroed) or Drake's point contact. Figures measured on held-out seeds 0, 1,
+# 2 and 98765 (400 poses per set) are in the comments; each bound leaves room for that
+# seed-to-seed spread and no more.
 THRESHOLDS = {
-    "stacking point error median": (0.03, "m"),
-    "stacking point error p95": (0.15, "m"),
-    "stacking normal error p95": (1.0, "deg"),
-    "general normal error median": (3.0, "deg"),
-    "general MAE on the paper's 4 outputs": (0.15, "rad"),
+    # absolute: the issue-3 bounds that the prior fails (its figure in brackets)
+    "stacking point error median": (0.03, "m"),  # 1.5-1.7 cm (prior 3.0-3.5 cm)
+    "stacking point error p95": (0.15, "m"),  # 6.8 cm (prior 15.6 cm; point contact 3.1 m)
+    "stacking normal error p95": (1.0, "deg"),  # 0.63 deg (prior and point contact 1.5 deg)
+    # the network must improve on its own geometric estimate (ratios: the prior scores 1)
+    "stacking point error median vs prior": (0.65, "x"),  # 0.46-0.57
+    "general point error p95 vs prior": (0.65, "x"),  # 0.45-0.52
+    "general MAE on the paper's 4 outputs vs prior": (0.99, "x"),  # 0.87-0.94
+    # outside the training distribution: still bounded, still better than the prior
+    "outside point error median": (0.022, "m"),  # 1.5-1.6 cm (prior 2.6-2.8 cm)
+    "outside point error median vs prior": (0.75, "x"),  # 0.55-0.61
+    "outside normal error p95": (1.5, "deg"),  # 0.82-1.12 deg (prior 1.7-2.6 deg)
 }
+# Targets out of reach today, pinned like the stress suite's expected failures: the gate
+# holds while the figure stays in the band (factors of the pinned figure), so a network
+# that gets worse fails it, and one that gets much better says the pin is stale.
+# name -> (target, pinned figure, (low, high) band factors, why).
+KNOWN_LIMITS = {
+    "general point error median vs prior": (
+        1.0, 1.23, (0.75, 1.3),
+        "the network moves the median general-pose point 1.15-1.34x further from Drake's than its own geometric "
+        "estimate does (8.1 mm against 7.0 mm): it trades the median for the tails (p95 0.45-0.52x the prior's)"),
+}
+# Reported, not gated: where the geometric estimate is already exact (the normal of a
+# vertex-face contact), the network can only lose; these figures show by how much.
+REPORTED = ("general normal error median", "general normal error p95", "stacking normal error median")
 
 
 def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False) -> dict:
-    """{"stacking": Dataset, "general": Dataset} of held-out poses (not cached)."""
+    """{"stacking", "general", "outside": Dataset} of held-out poses (not cached)."""
     from learned_contact.labels import make_dataset
 
-    return {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
+    data = {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
             for d, k in (("stacking", 5), ("general", 6))}
+    wide = make_dataset("stacking", n, 10 * seed + 7, workers=workers, progress=progress, use_cache=False,
+                        **OUTSIDE_RANGES)
+    data["outside"] = wide.subset(outside_training(wide))
+    return data
+
+
+def outside_training(ds) -> np.ndarray:
+    """(n,) bool: poses of a stacking Dataset beyond the training ranges (tilt of B's
+    z axis from A's above TRAINING_TILT_DEG in roll or pitch, or depth above TRAINING_DEPTH)."""
+    z_B = ds.R_AB[:, :, 2]  # (n, 3) B's z axis in A
+    roll = np.degrees(np.abs(np.arctan2(z_B[:, 1], z_B[:, 2])))
+    pitch = np.degrees(np.abs(np.arctan2(z_B[:, 0], z_B[:, 2])))
+    return (np.maximum(roll, pitch) > TRAINING_TILT_DEG) | (ds.depth > TRAINING_DEPTH)
+
+
+class GeometricPrior:
+    """The improved predictor's geometric estimate alone (its network's correction
+    zeroed): the simplest alternative every 'vs prior' gate compares with."""
+
+    kind = "geometric_prior"
+
+    def predict(self, p_AB, R_AB, *, size_A, size_B):
+        """(point_A (n, 3) [m], normal_A (n, 3)) for poses (n, 3), (n, 3, 3) and sizes (n, 3)."""
+        p_AB, R_AB = np.asarray(p_AB, float), np.asarray(R_AB, float)
+        h_A = 0.5 * np.broadcast_to(np.asarray(size_A, float), p_AB.shape)
+        h_B = 0.5 * np.broadcast_to(np.asarray(size_B, float), p_AB.shape)
+        S, p_c, R_c = canonicalise(p_AB, R_AB)
+        _, point_est, normal_est = features(p_c, R_c, h_A, h_B)
+        normal = S * normal_est
+        return S * point_est, normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+
+def _figures_of(point, normal, ds) -> dict:
+    e_point, e_normal = point_normal_errors(point, normal, ds)
+    S = octant_signs(ds.p_AB)
+    mae = paper_table(paper_outputs(point, normal, S), paper_outputs(ds.cop, ds.normal, S))["mean"]["MAE"]
+    return {"point error median": float(np.median(e_point)), "point error p95": float(np.percentile(e_point, 95)),
+            "normal error median": float(np.median(e_normal)), "normal error p95": float(np.percentile(e_normal, 95)),
+            "MAE on the paper's 4 outputs": float(mae)}
+
+
+def answer_figures(answers: dict, data: dict) -> dict:
+    """Every gate's figure for answers {set: (point (n, 3), normal (n, 3))} and their
+    prior's on the same poses (the prior is computed here)."""
+    prior = GeometricPrior()
+    out = {}
+    for dist, ds in data.items():
+        mine = _figures_of(*answers[dist], ds)
+        base = _figures_of(*prior.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)
+        for name, value in mine.items():
+            out[f"{dist} {name}"] = value
+            out[f"{dist} {name} vs prior"] = value / base[name] if base[name] > 0 else float("inf")
+            out[f"prior: {dist} {name}"] = base[name]
+    return out
 
 
 def gate_figures(predictor, data: dict) -> dict:
-    """The measured figure of every gate in THRESHOLDS for `predictor` on `data`."""
-    out = {}
-    for dist, ds in data.items():
-        point, normal = predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
-        e_point, e_normal = point_normal_errors(point, normal, ds)
-        S = octant_signs(ds.p_AB)
-        mae = paper_table(paper_outputs(point, normal, S), paper_outputs(ds.cop, ds.normal, S))["mean"]["MAE"]
-        out[f"{dist} point error median"] = float(np.median(e_point))
-        out[f"{dist} point error p95"] = float(np.percentile(e_point, 95))
-        out[f"{dist} normal error median"] = float(np.median(e_normal))
-        out[f"{dist} normal error p95"] = float(np.percentile(e_normal, 95))
-        out[f"{dist} MAE on the paper's 4 outputs"] = float(mae)
+    """The measured figure of every gate in THRESHOLDS (and more) for `predictor` on `data`."""
+    answers = {d: predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B) for d, ds in data.items()}
+    return answer_figures(answers, data)
+
+
+def verdicts(figures: dict, n: int, seed) -> list[dict]:
+    """The gates (dicts as metrics.json holds them) judged from `figures`."""
+    out = [{"name": name, "passed": bool(figures[name] <= limit), "value": figures[name], "threshold": limit,
+            "unit": unit, "description": f"{name} on {n} held-out poses per set (seed {seed}), must be <= {limit} {unit}"}
+           for name, (limit, unit) in THRESHOLDS.items()]
+    for name, (target, pinned, (low, high), why) in KNOWN_LIMITS.items():
+        band = [low * pinned, high * pinned]
+        out.append({"name": f"{name} (known limit)", "passed": bool(band[0] <= figures[name] <= band[1]),
+                    "value": figures[name], "threshold": band, "unit": "x",
+                    "description": f"target <= {target} not reached; pinned at {pinned} (seed {seed}, {n} poses per "
+                                   f"set): {why}. Fails if the figure leaves the band."})
     return out
 
 
@@ -51,8 +151,7 @@ def evaluate_gates(seed: int = 0, *, predictor_path=None, n: int = N_HELD_OUT) -
     """Gates of the predictor at `predictor_path` (default: shipped) on fresh held-out poses."""
     from learned_contact.loading import load_predictor
 
-    figures = gate_figures(load_predictor(predictor_path), held_out(seed, n))
-    gates = [{"name": name, "passed": bool(figures[name] <= limit), "value": figures[name], "threshold": limit,
-              "unit": unit, "description": f"{name} on {n} held-out poses (seed {seed}), must be <= {limit} {unit}"}
-             for name, (limit, unit) in THRESHOLDS.items()]
-    return {"gates": gates, "figures": figures, "n": n, "seed": seed}
+    data = held_out(seed, n)
+    figures = gate_figures(load_predictor(predictor_path), data)
+    return {"gates": verdicts(figures, n, seed), "figures": figures, "n": n, "seed": seed,
+            "n_outside": len(data["outside"])}

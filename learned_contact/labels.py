@@ -186,12 +186,13 @@ class Dataset:
 
 
 def make_dataset(distribution: str, n: int, seed: int, *, types=("1CC", "1AA", "1AAA"),
-                 workers: int = 2, progress: bool = True, use_cache: bool = True) -> Dataset:
+                 workers: int = 2, progress: bool = True, use_cache: bool = True, **ranges) -> Dataset:
     """Samples n proposals, labels them with Drake (cached on disk) and returns the
-    Dataset of those with a contact surface."""
-    key = cache.key("labels", distribution, n, seed, tuple(types), LABEL_VERSION)
+    Dataset of those with a contact surface. ranges: sampling.sample's max_depth /
+    max_tilt_deg (default: the training ranges)."""
+    key = cache.key("labels", distribution, n, seed, tuple(types), LABEL_VERSION, *sorted(ranges.items()))
     rows = cache.load(key) if use_cache else None
-    props = sample(distribution, n, seed, types)
+    props = sample(distribution, n, seed, types, **ranges)
     if rows is None:
         rows = label_proposals(props, workers=workers, progress=progress)
         if use_cache:

@@ -89,9 +89,14 @@ def _footprint_overlap(x, y, yaw, half_a, half_b) -> np.ndarray:
     return np.min(overlaps, axis=0)
 
 
-def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES) -> Proposals:
+def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_depth: float = MAX_DEPTH,
+           max_tilt_deg: float = 5.0) -> Proposals:
     """n seeded proposals of `distribution` ("stacking" or "general") for ordered
-    type pairs drawn uniformly from `types` x `types`."""
+    type pairs drawn uniformly from `types` x `types`.
+
+    max_depth [m] and max_tilt_deg (stacking roll and pitch bound) widen the ranges for
+    held-out poses outside the training distribution (learned_contact/gates.py); the
+    defaults are the training ranges and draw exactly the same random stream."""
     if distribution not in DISTRIBUTIONS:
         raise DatasetError(f"unknown distribution {distribution!r}; expected one of: {', '.join(DISTRIBUTIONS)}")
     if n < 1:
@@ -103,12 +108,12 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES) -> Proposa
     rng = np.random.default_rng([seed, DISTRIBUTIONS.index(distribution)])
     type_a = rng.integers(len(types), size=n)
     type_b = rng.integers(len(types), size=n)
-    depth = rng.uniform(0.0, MAX_DEPTH, size=n)
+    depth = rng.uniform(0.0, max_depth, size=n)
     size_table = np.array([CONTAINER_TYPES[t].size for t in types])
     half_a, half_b = 0.5 * size_table[type_a], 0.5 * size_table[type_b]
     if distribution == "stacking":
         rpy = np.empty((n, 3))
-        rpy[:, :2] = rng.uniform(-np.radians(5.0), np.radians(5.0), size=(n, 2))
+        rpy[:, :2] = rng.uniform(-np.radians(max_tilt_deg), np.radians(max_tilt_deg), size=(n, 2))
         rpy[:, 2] = rng.uniform(-np.pi, np.pi, size=n)
         parallel = rng.random(n) < 0.3
         rpy[parallel, :2] = rng.uniform(-np.radians(0.05), np.radians(0.05), size=(parallel.sum(), 2))

@@ -1,19 +1,23 @@
-"""Accuracy gates of issue 3 on the shipped model, on held-out poses made here.
+"""Accuracy gates of the learned predictor on the shipped model, on held-out poses made here.
 
 The held-out poses use sampling seeds that training never uses (training uses
-10 * seed + 1 and + 2). Figures: see learned_contact/shipped/report.md.
+10 * seed + 1 and + 2) and include poses outside the training distribution (steeper
+tilts, deeper overlaps: learned_contact/gates.py). Every gate must be one that a simple
+alternative fails: the predictor's own geometric estimate (network zeroed) or Drake's
+point contact. Figures: see learned_contact/shipped/report.md.
 """
 
 import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.gates import THRESHOLDS, gate_figures, held_out
+from learned_contact.gates import (KNOWN_LIMITS, REPORTED, THRESHOLDS, GeometricPrior, answer_figures, gate_figures,
+                                   held_out, outside_training)
 from learned_contact.labels import make_dataset
 from learned_contact.metrics import paper_table
 from learned_contact.paper_mlp import PaperConfig, paper_targets, predict_paper, train_paper
 
-GATE_SEED = 98_765  # sampling seeds 987_655 / 987_656, never used in training
+GATE_SEED = 98_765  # sampling seeds 987_655 / 987_656 / 987_657, never used in training
 
 
 @pytest.fixture(scope="module")
@@ -26,16 +30,53 @@ def figures(data):
     return gate_figures(load_predictor(), data)
 
 
+@pytest.fixture(scope="module")
+def alternatives(data):
+    """Figures of the simple alternatives on the same poses."""
+    prior = gate_figures(GeometricPrior(), data)
+    ok = {d: np.all(np.isfinite(ds.pp_point), axis=1) & np.all(np.isfinite(ds.pp_normal), axis=1) for d, ds in data.items()}
+    sub = {d: ds.subset(ok[d]) for d, ds in data.items()}
+    point_contact = answer_figures({d: (ds.pp_point, ds.pp_normal) for d, ds in sub.items()}, sub)
+    return {"geometric prior": prior, "Drake point contact": point_contact}
+
+
 @pytest.mark.parametrize("name", list(THRESHOLDS))
 def test_accuracy_gate(figures, name):
     limit, unit = THRESHOLDS[name]
     assert figures[name] <= limit, f"{name}: {figures[name]:.4g} {unit} > {limit} {unit}"
 
 
-def test_gate_thresholds_are_the_issue_s():
-    assert {k: v[0] for k, v in THRESHOLDS.items()} == {
-        "stacking point error median": 0.03, "stacking point error p95": 0.15, "stacking normal error p95": 1.0,
-        "general normal error median": 3.0, "general MAE on the paper's 4 outputs": 0.15}
+@pytest.mark.parametrize("name", list(THRESHOLDS))
+def test_every_gate_is_failed_by_a_simple_alternative(alternatives, name):
+    """A gate the network's absence (or Drake's point contact) also passes guards nothing."""
+    limit, _ = THRESHOLDS[name]
+    failing = [k for k, f in alternatives.items() if not f[name] <= limit]
+    assert failing, {k: f[name] for k, f in alternatives.items()}
+
+
+@pytest.mark.parametrize("name", list(KNOWN_LIMITS))
+def test_known_limit_is_pinned(figures, name):
+    """Out of reach today: the figure must stay in its pinned band (worse fails; reaching
+    the target fails too, so the pin is updated and the gate becomes a plain one)."""
+    target, pinned, (low, high), why = KNOWN_LIMITS[name]
+    value = figures[name]
+    assert value > target, f"{name} = {value:.3g} now meets its target {target}: make it a gate"
+    assert low * pinned <= value <= high * pinned, f"{name} = {value:.3g} left the band around {pinned}"
+    pytest.xfail(f"{name}: measured {value:.3g} (target <= {target}): {why}")
+
+
+def test_held_out_includes_poses_outside_the_training_distribution(data):
+    outside = data["outside"]
+    assert len(outside) >= 200  # of 400 drawn; measured 277-290 over four seeds
+    assert np.all(outside_training(outside))
+    assert np.any(outside.depth > 0.03) and np.any(~(outside.depth > 0.03))  # both kinds of "outside"
+    # the training distribution itself stays inside (the test of outside_training's definition)
+    assert not np.any(outside_training(data["stacking"]) & (data["stacking"].depth > 0.03))
+
+
+def test_reported_figures_exist(figures):
+    for name in REPORTED:
+        assert np.isfinite(figures[name]) and np.isfinite(figures[f"{name} vs prior"] if figures[f"prior: {name}"] > 0 else 0.0)
 
 
 # Stated MAE of the paper-faithful baseline at this reduced size (2000 train / 1000

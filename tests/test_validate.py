@@ -166,3 +166,25 @@ def test_corrupt_case_file_is_recomputed_on_resume(smoke_run, tmp_path, capsys):
     err = capsys.readouterr().err
     assert victims[0].name.removesuffix(".json") in err and "recomput" in err
     assert _deterministic(resumed) == _deterministic(reference)
+
+
+def test_in_scene_learned_gate_can_fail_and_pins_the_known_limit():
+    """The in-scene gate judges the predictor where it is trained (hydroelastic-driven
+    scenes): 1.3 cm passes, 5 cm fails; two_stack's known limit passes only inside its
+    pinned band (worse or much better both fail); point-driven cases are not judged."""
+    from testbed.validation.cases import registry
+
+    kind = registry()["scene"]
+
+    def gate(scene, model, median):
+        record = {"id": f"scene-{scene}-{model}", "params": {"scene": scene, "model": model, "duration": None},
+                  "result": {"learned_vs_hydro_point_error_median_m": median}}
+        found = kind._in_scene_gates(record)
+        return found[0].passed if found else None
+
+    assert gate("five_stack", "hydroelastic", 0.013) is True
+    assert gate("five_stack", "hydroelastic", 0.05) is False
+    assert gate("two_stack", "hydroelastic", 0.147) is True
+    assert gate("two_stack", "hydroelastic", 0.25) is False
+    assert gate("two_stack", "hydroelastic", 0.02) is False  # stale pin
+    assert gate("five_stack", "point", 0.5) is None

@@ -20,6 +20,21 @@ REST_WINDOW_S = 0.5
 MAX_RESTING_PENETRATION_M = 0.005
 FORCE_BALANCE_TOL = 0.01  # at rest, contact forces on the ground carry the total weight within 1%
 
+# In-scene accuracy of the learned predictor, judged where it is trained to answer: the
+# hydroelastic centre of pressure of scenes driven by hydroelastic contact. Same bound as
+# the offline gate on held-out stacking poses (learned_contact/gates.py).
+IN_SCENE_POINT_MEDIAN_M = 0.03
+# Known limits, pinned like the stress suite's expected failures: the gate passes only
+# while the figure stays inside the band around the measured one, so getting worse (or
+# better: the table is stale) fails. scene -> (reason, measured median [m], band factors).
+KNOWN_IN_SCENE_LIMITS = {
+    "two_stack": ("a pose-only predictor cannot see the payload: the top box's 0.8 m COM offset moves Drake's "
+                  "centre of pressure 14.7 cm from where a centred load would put it, at a pose that is the same "
+                  "to 1e-5 rad (DESIGN.md s.3)", 0.1474, (0.8, 1.25)),
+    "windy_stack": ("a pose-only predictor cannot see the wind: its side load shifts Drake's centre of pressure "
+                    "downwind by 9.5 cm while the pose barely changes", 0.0945, (0.8, 1.25)),
+}
+
 MODELS = ("hydroelastic", "point")
 SMOKE_DURATION_S = 0.8
 DEFAULT_SCENES = ("two_stack", "five_stack", "bridge", "single_drop", "windy_stack", "nine_mixed_stack",
@@ -97,6 +112,7 @@ class SceneCase(CaseKind):
                  s["resting_penetration_m"], MAX_RESTING_PENETRATION_M, "m",
                  f"largest penetration of any pair over the last {REST_WINDOW_S} s"),
         ]
+        gates += self._in_scene_gates(record)
         if "crane" in s.get("effects", []):
             return gates  # the ropes carry part of the load until the twistlocks release
         balance = s.get("ground_force_over_weight", float("nan"))
@@ -104,6 +120,26 @@ class SceneCase(CaseKind):
                           [1 - FORCE_BALANCE_TOL, 1 + FORCE_BALANCE_TOL], "x weight",
                           f"mean normal force on the ground over the last {REST_WINDOW_S} s / total weight"))
         return gates
+
+    @staticmethod
+    def _in_scene_gates(record: dict) -> list[Gate]:
+        """The learned predictor's in-scene point error median, for hydroelastic-driven
+        scenes with container pairs (a known limit is judged against its pinned band)."""
+        s, cid, params = record["result"], record["id"], record["params"]
+        median = s.get("learned_vs_hydro_point_error_median_m")
+        if params.get("model") != "hydroelastic" or median is None:
+            return []
+        known = KNOWN_IN_SCENE_LIMITS.get(params["scene"])
+        if known is None:
+            return [Gate(f"{cid}: learned point error in scene", median <= IN_SCENE_POINT_MEDIAN_M, median,
+                         IN_SCENE_POINT_MEDIAN_M, "m",
+                         "median distance between the predictor's point and Drake's hydroelastic centre of pressure "
+                         "over every logged container pair and step")]
+        reason, pinned, (better, worse) = known
+        return [Gate(f"{cid}: learned point error in scene (known limit)", better * pinned <= median <= worse * pinned,
+                     median, [better * pinned, worse * pinned], "m",
+                     f"known limit, pinned at {pinned * 100:.1f} cm (above the {IN_SCENE_POINT_MEDIAN_M * 100:g} cm "
+                     f"bound): {reason}; the gate fails if the figure leaves the band")]
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
