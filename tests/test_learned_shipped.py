@@ -41,14 +41,16 @@ def test_metrics_json_is_what_the_shipped_weights_score():
 def test_train_seed_0_reproduces_the_shipped_weights(tmp_path):
     """`testbed train --seed 0` end to end into a scratch folder (labels, both networks,
     evaluation): the improved network's weights and its external figures match the
-    shipped ones. Tolerance: torch on CPU with one thread is deterministic up to the
-    summation order of its kernels; measured differences are stated below."""
+    shipped ones. Not bitwise: measured on this machine, the retrained weights differ by
+    up to 5.9e-5 (absolute) and the external figures by up to 2.5e-6 (relative), the
+    float32 summation order of torch's CPU kernels; the tolerances are about 3x and 40x
+    those, far below what a changed seed or data set gives (weights differ at 1e-1)."""
     from learned_contact.training import train_default
 
     metrics = train_default(tmp_path, seed=0, progress=False)
     mine, shipped = load_predictor(tmp_path / "weights.npz"), load_predictor()
     for a, b in zip(mine.mlp.weights, shipped.mlp.weights):
-        np.testing.assert_allclose(a, b, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(a, b, rtol=0, atol=2e-4)
     for key in ("median", "p95"):
         assert metrics["improved"]["external/stacking"]["point_m"][key] == pytest.approx(
             METRICS["improved"]["external/stacking"]["point_m"][key], rel=1e-4)
