@@ -37,7 +37,8 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
-from testbed.containers import CONTAINER_TYPES
+from testbed.boxes import BOX_TYPE, BoxSpec, ContactProperties, GroundSpec, validate_box, validate_ground  # noqa: F401 (re-exported)
+from testbed.containers import CONTAINER_TYPES, ContainerType
 from testbed.effects import registry
 from testbed.errors import ScenarioError
 
@@ -46,19 +47,36 @@ SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 
 @dataclasses.dataclass
 class ContainerSpec:
-    """One container in a scene (see the module docstring for the YAML form)."""
+    """One container in a scene (see the module docstring for the YAML form), or a
+    generic box: `type: box` with a `box:` block (size, density or inertia, contact)."""
 
     name: str = "container"
     type: str = "1CC"
-    mass: typing.Optional[float] = None  # [kg] total; None = tare
+    mass: typing.Optional[float] = None  # [kg] total; None = tare (box: density x volume)
     com_offset: typing.List[float] = dataclasses.field(default_factory=lambda: [0.0, 0.0, 0.0])
     X_WC: Transform = dataclasses.field(default_factory=Transform)
     V_WC: typing.List[float] = dataclasses.field(default_factory=lambda: [0.0] * 6)
     fixed: bool = False
+    box: typing.Optional[BoxSpec] = None  # only with type: box
 
     def total_mass(self) -> float:
         """[kg]"""
-        return CONTAINER_TYPES[self.type].tare_mass if self.mass is None else float(self.mass)
+        if self.mass is not None:
+            return float(self.mass)
+        if self.type == BOX_TYPE:
+            if self.box is None or self.box.density is None:
+                return float("nan")
+            return float(self.box.density * np.prod(self.box.size))
+        return CONTAINER_TYPES[self.type].tare_mass
+
+    def container_type(self) -> ContainerType:
+        """The type's facts (size, colour, ...); for a box, made from its `box:` block."""
+        if self.type != BOX_TYPE:
+            return CONTAINER_TYPES[self.type]
+        box = self.box or BoxSpec()
+        return ContainerType(code=BOX_TYPE, description="generic rigid box", size=tuple(float(v) for v in box.size),
+                             tare_mass=self.total_mass(), max_gross_mass=float("inf"), model_url="",
+                             rgba=tuple(float(v) for v in box.rgba))
 
     def pose(self):
         """X_WC as a pydrake RigidTransform."""
@@ -108,7 +126,8 @@ class Scenario:
     name: str = "defaults"
     description: str = "One loaded 20 ft container resting on the quay."
     duration: float = 1.0  # [s] simulated
-    ground: bool = True  # the quay slab (sdf/ground/quay_ground.sdf)
+    ground: bool = True  # the quay slab (sdf/ground/quay_ground.sdf), or ground_surface when given
+    ground_surface: typing.Optional[GroundSpec] = None  # a slab or half-space at a height; None = the quay slab
     overlap_tolerance: float = 5e-3  # [m] largest allowed penetration at t = 0
     plant: MultibodyPlantConfig = dataclasses.field(default_factory=_default_plant)
     simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
@@ -375,8 +394,9 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None
     seen: set[str] = set()
     for i, c in enumerate(scenario.containers):
         where = f"containers[{i}]"
-        if c.type not in CONTAINER_TYPES:
-            raise ScenarioError(source, f"{where}.type", f"unknown container type {c.type!r}; expected one of: {', '.join(CONTAINER_TYPES)}")
+        if c.type not in CONTAINER_TYPES and c.type != BOX_TYPE:
+            raise ScenarioError(source, f"{where}.type", f"unknown container type {c.type!r}; expected one of: {', '.join(CONTAINER_TYPES)}, {BOX_TYPE}")
+        validate_box(c, where, source)
         if not c.name or not c.name.replace("_", "").isalnum():
             raise ScenarioError(source, f"{where}.name", f"expected a non-empty name of letters, digits and '_', got {c.name!r}")
         if c.name in seen or c.name == "quay_ground":
@@ -387,7 +407,7 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None
             raise ScenarioError(source, f"{where}.mass", f"expected a positive mass [kg], got {mass}")
         if len(c.com_offset) != 3 or not np.all(np.isfinite(c.com_offset)):
             raise ScenarioError(source, f"{where}.com_offset", f"expected 3 finite numbers [m], got {c.com_offset}")
-        half = CONTAINER_TYPES[c.type].half_size
+        half = c.container_type().half_size
         if np.any(np.abs(c.com_offset) >= half):
             raise ScenarioError(source, f"{where}.com_offset", f"centre of mass {c.com_offset} lies outside the {c.type} box (half extents {half.tolist()} m)")
         if len(c.V_WC) != 6 or not np.all(np.isfinite(c.V_WC)):
@@ -399,6 +419,8 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None
         if not np.all(np.isfinite(X.translation())):
             raise ScenarioError(source, f"{where}.X_WC", "expected a finite translation")
     _check_bounds(scenario, source)
+    if scenario.ground_surface is not None:
+        validate_ground(scenario.ground_surface, source)
     effects = {name: registry()[name](getattr(scenario.effects, name), scenario, source) for name in scenario.declared_effects()}
     for effect in effects.values():
         effect.check(effects)

@@ -2,7 +2,7 @@
 
   testbed calibrate fit --data FILE.npz --out DIR [--model point|hydroelastic]
         [--approximation sap|similar|lagged|tamsi] [--split FRACTION|none] [--seed N]
-        [--workers N] [--budget N] [--time-step H]
+        [--workers N] [--budget N] [--time-step H] [--free NAMES] [--start PARAMS.yaml]
   testbed calibrate evaluate --data FILE.npz --params PARAMS.yaml --out DIR [--workers N]
 
 fit writes DIR/params.yaml (a scene fragment), metrics.json (train and held-out errors),
@@ -39,10 +39,12 @@ def add_arguments(parser) -> None:
     fit.add_argument("--model", default="point", choices=("point", "hydroelastic"))
     fit.add_argument("--approximation", default="sap", choices=("sap", "similar", "lagged", "tamsi"))
     fit.add_argument("--split", default="0.5", help="held-out fraction of tosses (duplicates kept together), or 'none' (default 0.5)")
-    fit.add_argument("--seed", type=int, default=0, help="seed of the split and the optimiser (default 0)")
+    fit.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
     fit.add_argument("--workers", type=_positive_int, default=2, help="rollout processes (default 2)")
     fit.add_argument("--budget", type=_positive_int, default=150, help="parameter sets to try at most (default 150)")
     fit.add_argument("--time-step", type=float, default=5e-4, help="largest plant step [s]; rounded so frames fall on steps (default 5e-4)")
+    fit.add_argument("--free", help="comma-separated parameters to vary (default: mu, stiffness or modulus, dissipation; "
+                                    "also table_height, corner_spheres)")
     fit.add_argument("--start", help="a params.yaml to start from (default: built-in start values)")
     ev = sub.add_parser("evaluate", help="roll out every toss of a file with given parameters")
     ev.add_argument("--data", required=True, help="toss file (.npz)")

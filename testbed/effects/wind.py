@@ -18,7 +18,6 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
-from testbed.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect
 
@@ -47,7 +46,7 @@ class WindLoad(LeafSystem):
         plant = assembly.plant
         specs = [c for c in assembly.scenario.containers if not c.fixed]
         self._bodies = [assembly.bodies[c.name] for c in specs]
-        self._sizes = [CONTAINER_TYPES[c.type].size for c in specs]
+        self._sizes = [c.container_type().size for c in specs]
         angle = math.radians(config.direction_deg)
         self._direction_W = np.array([math.cos(angle), math.sin(angle), 0.0])
         self._pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient  # [Pa]
