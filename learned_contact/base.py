@@ -75,7 +75,7 @@ class MLPPredictor:
             sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
             point, normal, depth, status, row = self._predict_compiled(p, R, sA, sB, outside == "raise")
             if status:
-                raise_for_status(status, row, p, sA, sB, self.supported_sizes)
+                raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
         if outside == "raise" and np.any((depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])):
             raise domain_error(depth)
         return (point[0], normal[0]) if single else (point, normal)
@@ -90,7 +90,7 @@ class MLPPredictor:
             sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
             depth, status, row = box_depth(p, R, sA, sB, self.supported_sizes)
             if status:
-                raise_for_status(status, row, p, sA, sB, self.supported_sizes)
+                raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
         else:
             from learned_contact.geometry import sat_normal
 

@@ -20,6 +20,9 @@ import numpy as np
 from learned_contact.errors import PredictorDomainError, PredictorInputError
 
 SIZE_TOLERANCE = 1e-3  # [m] a size matches a supported one within this, per axis
+# |R^T R - I| and det R = +1 within this: rotations from quaternions or Drake are
+# orthonormal to ~1e-15; 1e-6 admits a matrix stored with 7 significant digits.
+ROTATION_TOLERANCE = 1e-6
 # Poses answered as trained: separating-axis penetration depth within this range [m].
 # Training covers 0 to 0.03 m; 1 cm of separation and 5 cm of depth are tolerated.
 DOMAIN_DEPTH = (-0.01, 0.05)
@@ -119,6 +122,7 @@ def check_numpy(p_AB, R_AB, size_A, size_B, supported: np.ndarray):
     p_AB, R_AB, single = check_poses(p_AB, R_AB)
     if not (np.all(np.isfinite(p_AB)) and np.all(np.isfinite(R_AB))):
         raise PredictorInputError(NOT_FINITE)
+    check_rotations(R_AB)
     sizes = []
     for name, size in (("size_A", size_A), ("size_B", size_B)):
         size = check_size_shape(name, size, len(p_AB))
@@ -132,11 +136,30 @@ def check_numpy(p_AB, R_AB, size_A, size_B, supported: np.ndarray):
     return p_AB, R_AB, sizes[0], sizes[1], single
 
 
-def raise_for_status(status: int, row: int, p_AB, size_A, size_B, supported) -> None:
+def rotation_error(row: int, R) -> PredictorInputError:
+    R = np.asarray(R, dtype=float)
+    off = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    return PredictorInputError(
+        f"R_AB[{row}] is not a rotation matrix: max |R^T R - I| = {off:.3g}, det = {np.linalg.det(R):.6g}; "
+        f"expected an orthonormal matrix with det +1 (within {ROTATION_TOLERANCE:g})")
+
+
+def check_rotations(R_AB) -> None:
+    """Raises PredictorInputError for the first R_AB (n, 3, 3) that is not a proper rotation."""
+    off = np.abs(np.einsum("nki,nkj->nij", R_AB, R_AB) - np.eye(3)).max(axis=(1, 2))
+    bad = (off > ROTATION_TOLERANCE) | (np.linalg.det(R_AB) < 0.0)
+    if np.any(bad):
+        row = int(np.argmax(bad))
+        raise rotation_error(row, R_AB[row])
+
+
+def raise_for_status(status: int, row: int, p_AB, size_A, size_B, supported, R_AB=None) -> None:
     """Turns a compiled kernel's status (learned_contact.compiled.STATUS_*) into the
     same errors the numpy path raises."""
     if status == 1:
         raise PredictorInputError(NOT_FINITE)
+    if status == 6:
+        raise rotation_error(row, R_AB[row] if R_AB is not None else np.full((3, 3), np.nan))
     name, size = ("size_A", size_A) if status in (2, 4) else ("size_B", size_B)
     bad = size[row if len(size) > 1 else 0]
     if status in (4, 5):

@@ -134,3 +134,20 @@ def test_corrupt_and_missing_files(tmp_path):
 def test_shipped_meta_is_json():
     for name in ("improved", "paper"):
         json.dumps(load_predictor(name).meta)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+@pytest.mark.parametrize("R, what", [
+    (np.eye(3) * 2.0, "scaled"),
+    (np.diag([1.0, 1.0, -1.0]), "a reflection (det -1)"),
+    (np.array([[1.0, 1e-3, 0], [0, 1, 0], [0, 0, 1]]), "sheared by 1e-3"),
+])
+def test_a_matrix_that_is_not_a_rotation_is_refused(compiled, R, what):
+    """Every predictor, both paths: R_AB must be orthonormal with det +1 (ROTATION_TOLERANCE)."""
+    from learned_contact.errors import PredictorInputError
+
+    size = [6.058, 2.438, 2.591]
+    for name in ("improved", "paper"):
+        pred = load_predictor(name, compiled=compiled)
+        with pytest.raises(PredictorInputError, match=r"R_AB\[1\] is not a rotation matrix"):
+            pred.predict(np.array([[0, 0, 2.59]] * 2), np.stack([np.eye(3), R]), size_A=size, size_B=size)

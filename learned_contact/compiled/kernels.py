@@ -6,8 +6,9 @@ Array arguments (all float64, C-contiguous): p (n, 3) [m], R (n, 3, 3), sA, sB
 The MLP is packed by `pack_mlp`: params (flat float64: x_mean, x_std, then W_i
 (in, out) row-major and b_i per layer) and dims (int64: [layers, d_0, ..., d_L]).
 Kernels return their outputs plus (status, row): status 0 ok, 1 non-finite pose,
-2/3 size_A/size_B not supported, 4/5 size_A/size_B not finite; row: the first bad
-row (interface.raise_for_status turns these into the numpy path's errors).
+2/3 size_A/size_B not supported, 4/5 size_A/size_B not finite, 6 R_AB not a proper
+rotation (interface.ROTATION_TOLERANCE); row: the first bad row
+(interface.raise_for_status turns these into the numpy path's errors).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from numba import njit
 from learned_contact.compiled.geometry import (LENGTH_SCALE, MAX_VERTS, N_FEATURES, canonicalise, patch_estimate,
                                                sat_depth)
 from learned_contact.encodings import PAPER_FRAME
-from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
+from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE
 
 ACTIVATION_CODES = {"tanh": 0, "silu": 1, "relu": 2}
 POINT_STEP = 0.5  # [m] per unit of the improved MLP's point outputs (predictor.POINT_STEP)
@@ -65,6 +66,17 @@ def check_inputs(p, R, sA, sB, supported):
             for j in range(3):
                 if not math.isfinite(R[r, c, j]):
                     return 1, r
+    for r in range(p.shape[0]):  # R^T R = I and det R = +1, within ROTATION_TOLERANCE
+        for a in range(3):
+            for b in range(3):
+                dot = R[r, 0, a] * R[r, 0, b] + R[r, 1, a] * R[r, 1, b] + R[r, 2, a] * R[r, 2, b]
+                if abs(dot - (1.0 if a == b else 0.0)) > ROTATION_TOLERANCE:
+                    return 6, r
+        det = (R[r, 0, 0] * (R[r, 1, 1] * R[r, 2, 2] - R[r, 1, 2] * R[r, 2, 1])
+               - R[r, 0, 1] * (R[r, 1, 0] * R[r, 2, 2] - R[r, 1, 2] * R[r, 2, 0])
+               + R[r, 0, 2] * (R[r, 1, 0] * R[r, 2, 1] - R[r, 1, 1] * R[r, 2, 0]))
+        if det < 0.0:
+            return 6, r
     status, row = _check_sizes(sA, supported, 2, 4)
     if status != 0:
         return status, row
