@@ -10,6 +10,11 @@ two runs made side by side in one process.
 
 Trajectories are sampled every `SAMPLE_PERIOD` by advancing the simulator to each
 sample time (no logging system is added, so the timing is the bare simulation's).
+
+MuJoCo curves (`engines` containing "mujoco"): the same scene simulated by MuJoCo
+(testbed/engines, both contact parameter sets) over the same time-step sweep, its
+deviation measured against the fine-step Drake reference of the scene's own contact
+model (the ground truth), so that both engines' curves sit on one chart.
 """
 
 import copy
@@ -22,6 +27,7 @@ from testbed.effects import registry
 from testbed.scenario import Scenario, load_scenario
 
 SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
+MUJOCO_TIMING_REPEATS = 3  # MuJoCo sweep points: the fastest of this many identical runs is timed
 
 
 def configure(scenario: Scenario, *, model: str, approximation: str, time_step: float,
@@ -87,11 +93,20 @@ def sampled_run(scenario: Scenario) -> dict:
 
 
 def deviation(run: dict, reference: dict) -> float:
-    """RMS over common samples and bodies of the position difference [m] (inf if diverged)."""
-    k = min(len(run["times"]), len(reference["times"]))
-    if run["status"] != "ok" or k == 0:
+    """RMS over common samples and bodies of the position difference [m] (inf if diverged).
+    Samples are matched by time: a run sampled on another grid (MuJoCo keeps every
+    round(SAMPLE_PERIOD / h)-th step) is interpolated linearly onto the reference's times
+    within its own time span."""
+    if run["status"] != "ok" or len(run["times"]) == 0 or len(reference["times"]) == 0:
         return float("inf")
-    diff = run["p_WB"][:k] - reference["p_WB"][:k]
+    k = min(len(run["times"]), len(reference["times"]))
+    if np.allclose(run["times"][:k], reference["times"][:k], atol=1e-9):
+        diff = run["p_WB"][:k] - reference["p_WB"][:k]
+    else:
+        t = reference["times"][reference["times"] <= run["times"][-1] + 1e-12]
+        flat = run["p_WB"].reshape(len(run["times"]), -1)  # (k_run, 3 m) [m]
+        moved = np.stack([np.interp(t, run["times"], flat[:, j]) for j in range(flat.shape[1])], axis=1)
+        diff = moved.reshape(len(t), -1, 3) - reference["p_WB"][:len(t)]
     return float(np.sqrt(np.mean(np.sum(diff**2, axis=-1))))
 
 
@@ -110,23 +125,74 @@ def summarize_run(run: dict, reference: dict | None) -> dict:
 
 
 def sweep(scene: str, *, models, approximations, time_steps, reference_step: float, duration: float,
-          progress: bool = False) -> list[dict]:
-    """Runs the grid; each row is one (model, approximation, time_step) with its figures."""
+          progress: bool = False, engines=("drake",), mujoco_params=("matched", "default")) -> list[dict]:
+    """Runs the grid; each row is one (engine, model, approximation, time_step) with its figures.
+
+    engines: "drake" sweeps every (model, approximation) against its own fine-step
+    reference; "mujoco" sweeps MuJoCo with each of `mujoco_params` (rows: model "mujoco",
+    approximation = the parameter set) against the fine-step Drake reference of the
+    scene's own contact model and approximation. A MuJoCo that is not installed or a
+    scene it cannot translate gives rows with status "unavailable: <why>"."""
+    unknown = set(engines) - {"drake", "mujoco"}
+    if unknown:
+        from testbed.errors import TestbedError
+
+        raise TestbedError(f"engines: unknown {sorted(unknown)}; expected 'drake' and/or 'mujoco'")
     base = load_scenario(scene)
-    rows = []
-    combos = [(m, a) for m in models for a in approximations]
+    rows, references = [], {}
+
+    def reference_of(model, approximation):
+        if (model, approximation) not in references:
+            references[model, approximation] = sampled_run(configure(
+                base, model=model, approximation=approximation, time_step=reference_step, duration=duration))
+        return references[model, approximation]
+
+    combos = [(m, a) for m in models for a in approximations] if "drake" in engines else []
     iterator = combos
     if progress:
         from tqdm import tqdm
 
         iterator = tqdm(combos, desc=f"sim study {scene}", leave=False)
     for model, approximation in iterator:
-        reference = sampled_run(configure(base, model=model, approximation=approximation,
-                                          time_step=reference_step, duration=duration))
+        reference = reference_of(model, approximation)
         for h in time_steps:
             run = sampled_run(configure(base, model=model, approximation=approximation, time_step=h, duration=duration))
-            rows.append({"scene": scene, "model": model, "approximation": approximation, "time_step": h,
-                         "reference_step": reference_step, **summarize_run(run, reference)})
+            rows.append({"scene": scene, "engine": "drake", "model": model, "approximation": approximation,
+                         "time_step": h, "reference_step": reference_step, **summarize_run(run, reference)})
+    if "mujoco" in engines:
+        rows += _mujoco_rows(base, scene, time_steps, duration, reference_step, mujoco_params, reference_of)
+    return rows
+
+
+def _mujoco_rows(base, scene, time_steps, duration, reference_step, params_sets, reference_of) -> list[dict]:
+    """The MuJoCo sweep rows (see sweep); the reference is Drake's, of the scene's own model."""
+    from testbed.errors import OptionalDependencyError
+
+    model, approximation = base.effects.contact.model, base.effects.contact.approximation
+    head = {"scene": scene, "engine": "mujoco", "model": "mujoco", "reference_step": reference_step,
+            "reference": f"drake {model} {approximation} h={reference_step:g}"}
+    try:
+        from testbed.engines.mujoco import check_supported, mujoco_module
+        from testbed.engines.mujoco_run import sampled_run_mujoco
+
+        mujoco_module()
+        check_supported(base)
+    except (ImportError, OptionalDependencyError, ValueError) as e:  # UnsupportedSceneError is a ValueError
+        why = str(e).strip().splitlines()[0]
+        return [{**head, "approximation": p, "time_step": h, "status": f"unavailable: {why}", "failure": why,
+                 "ms_per_sim_second": float("nan"), "deviation_m": float("nan"), "max_penetration_m": float("nan"),
+                 "energy_gain_J": float("nan"), "energy_drift_J": float("nan")}
+                for p in params_sets for h in time_steps]
+    reference = reference_of(model, approximation)
+    rows = []
+    for params in params_sets:
+        for h in time_steps:
+            s = configure(base, model=model, approximation=approximation, time_step=h, duration=duration)
+            # MuJoCo runs last milliseconds, so one preemption on a shared machine can triple
+            # the time: the fastest of MUJOCO_TIMING_REPEATS identical (deterministic) runs is kept.
+            run = min((sampled_run_mujoco(s, params=params, sample_period=SAMPLE_PERIOD)
+                       for _ in range(MUJOCO_TIMING_REPEATS)), key=lambda r: r["wall_s"])
+            rows.append({**head, "approximation": params, "time_step": h, **summarize_run(run, reference)})
     return rows
 
 

@@ -53,8 +53,20 @@ def _environment() -> dict:
     import numpy
     import pydrake
 
+    from importlib import metadata
+
+    try:  # pydrake has no __version__; the installed distribution knows it
+        drake_version = metadata.version("drake")
+    except metadata.PackageNotFoundError:
+        drake_version = getattr(pydrake, "__version__", "unknown")
+    try:  # optional (the engine case kind): its version, or that it is missing
+        import mujoco
+
+        mujoco_version = mujoco.__version__
+    except ImportError:
+        mujoco_version = "not installed"
     return {"python": platform.python_version(), "platform": platform.platform(), "numpy": numpy.__version__,
-            "drake": getattr(pydrake, "__version__", "unknown"), "cpus": os.cpu_count()}
+            "drake": drake_version, "mujoco": mujoco_version, "cpus": os.cpu_count()}
 
 
 def build_metrics(spec: dict, records: list[dict], replays: dict[str, str] | None = None) -> dict:
@@ -101,7 +113,8 @@ def sections(metrics: dict, records: list[dict]) -> list[Section]:
         (g["name"], "yes" if g["passed"] else "NO", format_value(g["value"], g["unit"]),
          format_value(g["threshold"], g["unit"]), g["description"]) for g in gates])], order=90, brief=False))
     env = metrics["environment"]
-    out.append(Section(None, [Text(f"{metrics['created']}; Drake {env['drake']}, Python {env['python']}, {env['cpus']} "
+    out.append(Section(None, [Text(f"{metrics['created']}; Drake {env['drake']}, MuJoCo {env.get('mujoco', 'unknown')}, "
+                                   f"Python {env['python']}, {env['cpus']} "
                                    "CPUs. Timings are indicative: compare ratios within this report, not absolute "
                                    "times across machines.")], order=99, brief=False))
     return out

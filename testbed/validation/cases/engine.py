@@ -1,0 +1,152 @@
+"""Case kind `engine`: the same scenes simulated by MuJoCo, against Drake's ground truth (issue 13).
+
+One case per scene (testbed.engines.mujoco_compare.engine_table_row): Drake's run of the
+scene's own contact model (the ground truth, with its contact log), Drake's bare
+hydroelastic and point-contact runs (for their speed), and MuJoCo with both contact
+parameter sets ('matched' to Drake's hydroelastic stiffness and dissipation, and MuJoCo's
+'default'), all in one process. A missing MuJoCo, or a scene it cannot translate, makes
+the case unavailable (a result saying why), not an error. Reported, not gated.
+
+Section "The engine users would pick instead": the table per scene and parameter set.
+Its speed-accuracy chart comes from the simulation study's MuJoCo curves: the
+`sim_sweep` kind places it right after this section (cases/sim_sweep.py: engine_chart_section, at SECTION_ORDER + 1).
+"""
+
+from __future__ import annotations
+
+import math
+
+from testbed.document import Section, Text, table
+from testbed.validation.cases import Case, CaseKind, register
+
+SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
+SECTION_TITLE = "The engine users would pick instead"
+PARAMS = ("matched", "default")
+# (scene, simulated duration [s]): each scene's own, nine_mixed_stack cut from 5 s to 2 s
+# (Drake's hydroelastic run of it costs ~7 s per simulated second here, three times over).
+# Measured on 2 busy cores (load ~4.7): 132 s of worker time for all seven (crane_misaligned,
+# 83 s alone, is in the full suite only).
+DEFAULT_SCENES = (("two_stack", 2.0), ("five_stack", 2.0), ("nine_mixed_stack", 2.0), ("single_drop", 2.0),
+                  ("bridge", 2.0), ("quay_slide_to_rest", 1.2), ("crane_hard_landing", 3.0))
+FULL_EXTRA = (("crane_misaligned", 5.0), ("windy_stack", 4.0), ("crane_edge_landing", 5.0), ("crane_landing_sway", 9.0),
+              ("quay_wind_slide", 1.0), ("stack_slide_off", 3.0))
+SMOKE_DURATION_S = 0.3
+
+# figures kept per parameter set (scalars of compare.json and the contact comparison)
+KEYS = ("diverged", "position_error_max_m", "final_position_error_max_m", "final_angle_error_max_deg",
+        "max_penetration_m", "energy_gain_max_J", "contact_point_error_median_m", "contact_point_error_p95_m",
+        "contact_point_error_final_max_m", "contact_normal_error_max_deg", "contact_rows_compared",
+        "contact_rows_missing_mujoco", "wall_per_sim_s_mujoco", "speedup_vs_hydroelastic", "speedup_vs_point",
+        "simulated_s_learned")
+
+
+def engine_cases(scenes) -> list[Case]:
+    return [Case(f"engine-{s}", "engine", {"scene": s, "duration": d}) for s, d in scenes]
+
+
+def unavailable_reason() -> str | None:
+    """Why the MuJoCo engine cannot run here (its install command), or None."""
+    from testbed.errors import OptionalDependencyError
+
+    try:
+        from testbed.engines.mujoco import mujoco_module
+
+        mujoco_module()
+    except (ImportError, OptionalDependencyError) as e:
+        return str(e).strip().splitlines()[0]
+    return None
+
+
+@register
+class EngineCase(CaseKind):
+    name = "engine"
+    order = 30
+    timing_keys = ("wall_per_sim_s_mujoco", "wall_per_sim_s_hydroelastic", "wall_per_sim_s_point",
+                   "speedup_vs_hydroelastic", "speedup_vs_point")
+
+    def cases(self, suite: str) -> list[Case]:
+        if suite == "smoke":
+            return engine_cases([("two_stack", SMOKE_DURATION_S)])
+        if suite == "default":
+            return engine_cases(DEFAULT_SCENES)
+        if suite == "full":
+            return engine_cases(DEFAULT_SCENES + FULL_EXTRA)
+        return []
+
+    def run(self, scene: str, duration: float) -> dict:
+        reason = unavailable_reason()
+        if reason is not None:
+            return {"scene": scene, "available": False, "reason": reason}
+        from testbed.engines.mujoco import UnsupportedSceneError
+        from testbed.engines.mujoco_compare import engine_table_row
+
+        try:
+            row = engine_table_row(scene, params=PARAMS, duration=duration)
+        except UnsupportedSceneError as e:
+            return {"scene": scene, "available": False, "reason": str(e).strip().splitlines()[0]}
+        import mujoco
+
+        out = {k: v for k, v in row.items() if k != "mujoco"}
+        out.update(available=True, mujoco_version=mujoco.__version__,
+                   mujoco={p: {k: f.get(k) for k in KEYS} for p, f in row["mujoco"].items()})
+        return out
+
+    def sections(self, records: list[dict]) -> list[Section]:
+        if not records:
+            return []
+        results = [r["result"] for r in records]
+        ran = [s for s in results if s.get("available")]
+        blocks = [Text("Each scene simulated by MuJoCo as a whole-simulator alternative, with contact parameters "
+                       "'matched' to Drake's hydroelastic stiffness and dissipation and with MuJoCo's 'default' ones, "
+                       "against Drake's run of the scene's own contact model (the ground truth). Speed = Drake's wall "
+                       "time per simulated second / MuJoCo's, measured side by side in one process. Contact point: "
+                       "MuJoCo's contacts per body pair reduced to the force-weighted centroid, against Drake's centre "
+                       "of pressure in the contact plane.")]
+        if ran:
+            blocks.append(Text(summary(ran)))
+            blocks.append(table(
+                ["scene", "MuJoCo parameters", "ran to [s]", "MuJoCo wall / sim s [ms]", "x vs hydroelastic",
+                 "x vs point", "position err max [mm]", "final position err [mm]", "final angle err [deg]",
+                 "max penetration [mm]", "energy gain [J]", "contact point err median [mm]", "p95 [mm]",
+                 "normal err max [deg]", "diverged"],
+                [_row(s, p, f) for s in ran for p, f in s["mujoco"].items()]))
+        missing = [s for s in results if not s.get("available")]
+        if missing:
+            blocks.append(Text("Unavailable: " + "; ".join(f"{s['scene']} ({s['reason']})" for s in missing)))
+        return [Section(SECTION_TITLE, blocks, order=SECTION_ORDER)]
+
+
+def _range(values, fmt=".0f") -> str:
+    low, high = min(values), max(values)
+    return format(low, fmt) if format(low, fmt) == format(high, fmt) else f"{format(low, fmt)}-{format(high, fmt)}"
+
+
+def _num(value, scale=1.0, fmt=".3g") -> str:
+    return "n/a" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value * scale, fmt)
+
+
+def _row(s: dict, params: str, f: dict) -> tuple:
+    return (s["scene"], params, _num(f["simulated_s_learned"], fmt="g"), _num(f["wall_per_sim_s_mujoco"], 1e3),
+            _num(f["speedup_vs_hydroelastic"], fmt=".0f"), _num(f["speedup_vs_point"], fmt=".0f"),
+            _num(f["position_error_max_m"], 1e3), _num(f["final_position_error_max_m"], 1e3),
+            _num(f["final_angle_error_max_deg"]), _num(f["max_penetration_m"], 1e3), _num(f["energy_gain_max_J"]),
+            _num(f.get("contact_point_error_median_m"), 1e3), _num(f.get("contact_point_error_p95_m"), 1e3),
+            _num(f.get("contact_normal_error_max_deg")), "yes" if f["diverged"] else "no")
+
+
+def summary(ran: list[dict]) -> str:
+    """One paragraph: the speed-up range and the worst trajectory error per parameter set."""
+    parts = []
+    for p in PARAMS:
+        figures = [(s["scene"], s["mujoco"][p]) for s in ran if p in s["mujoco"]]
+        if not figures:
+            continue
+        hydro = [f["speedup_vs_hydroelastic"] for _, f in figures]
+        point = [f["speedup_vs_point"] for _, f in figures]
+        scene, worst = max(figures, key=lambda x: -1.0 if x[1]["position_error_max_m"] is None
+                           else x[1]["position_error_max_m"])
+        parts.append(f"MuJoCo ({p}) runs {_range(hydro)}x faster than Drake hydroelastic and "
+                     f"{_range(point)}x faster than Drake point contact; its largest trajectory error "
+                     f"is {_num(worst['position_error_max_m'], 1e3)} mm ({scene})")
+    diverged = [f"{s['scene']} ({p})" for s in ran for p, f in s["mujoco"].items() if f["diverged"]]
+    return "; ".join(parts) + "." + (f" Diverged: {', '.join(diverged)}." if diverged else "")
