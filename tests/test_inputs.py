@@ -12,16 +12,7 @@ from testbed import cli
 from testbed.errors import ScenarioError
 from testbed.scenario import BOUNDS, _Dumper, _Loader, dump_scenario, load_scenario, shipped_scenes
 
-GOOD = """name: input_probe
-duration: 0.01
-containers:
-- name: a
-  type: 1CC
-  mass: 20000
-  X_WC: {translation: [0, 0, 1.2955]}
-effects:
-  contact: {}
-"""
+from test_bad_input import GOOD  # noqa: E402  (the same minimal valid scene)
 
 
 def _run_bytes(tmp_path, data: bytes):
@@ -34,7 +25,7 @@ def _run_bytes(tmp_path, data: bytes):
 
 @pytest.mark.parametrize("data, needles", [
     # Latin-1 text (an 'ä' in a description): used to be a UnicodeDecodeError traceback
-    (GOOD.replace("input_probe", "k\xe4fig").encode("latin-1"), ["UTF-8", "line 1"]),
+    (GOOD.replace("bad_input_probe", "k\xe4fig").encode("latin-1"), ["UTF-8", "line 1"]),
     # an empty file and a file with only comments: used to run the defaults scene silently
     (b"", ["empty"]),
     (b"# nothing here\n\n", ["empty"]),

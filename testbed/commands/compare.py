@@ -55,13 +55,10 @@ def run(args) -> int:
 def format_figures(f: dict) -> str:
     """The few lines `testbed compare` prints."""
     verdict = "DIVERGED" if f["diverged"] else ("ran, but left Drake's path" if f["departed"] else "ran")
+    from testbed.compare.metrics import error_lines
+
     return "\n".join([
         f"scene {f['scene']} with the {f['predictor']} predictor in the loop: {verdict} "
         f"({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
-        f"  position error max {f['position_error_max_m'] * 1e3:.3f} mm (final {f['final_position_error_max_m'] * 1e3:.3f} mm, "
-        f"angle {f['final_angle_error_max_deg']:.4f} deg); max penetration {f['max_penetration_m'] * 1e3:.3f} mm; "
-        f"energy gain max {f['energy_gain_max_J']:.3g} J",
-        "  wall per simulated second: learned {:.3f} s, Drake hydroelastic {:.3f} s{}".format(
-            f["wall_per_sim_s_learned"], f["wall_per_sim_s_truth"],
-            f", Drake point {f['wall_per_sim_s_point']:.3f} s" if "wall_per_sim_s_point" in f else ""),
+        *error_lines(f, "learned", f["wall_per_sim_s_learned"]),
     ])

@@ -140,3 +140,16 @@ def compare_figures(truth, learned, containers, predictor) -> dict:
     figures["worst_container"] = learned.names[worst[1]] if learned.names else int(worst[1])
     figures["worst_time_s"] = float(learned.time[worst[0]])
     return figures
+
+
+def error_lines(f: dict, engine_label: str, engine_wall: float) -> list[str]:
+    """The error and speed lines `testbed compare` prints for figures `f` (compare.json
+    keys) of the run under test, labelled `engine_label`, costing `engine_wall` [s per s]."""
+    point = f", Drake point {f['wall_per_sim_s_point']:.3f} s" if "wall_per_sim_s_point" in f else ""
+    return [
+        f"  position error max {f['position_error_max_m'] * 1e3:.3f} mm (final {f['final_position_error_max_m'] * 1e3:.3f} mm, "
+        f"angle {f['final_angle_error_max_deg']:.4f} deg); max penetration {f['max_penetration_m'] * 1e3:.3f} mm; "
+        f"energy gain max {f['energy_gain_max_J']:.3g} J",
+        f"  wall per simulated second: {engine_label} {engine_wall:.4f} s, Drake hydroelastic "
+        f"{f['wall_per_sim_s_truth']:.3f} s{point}",
+    ]

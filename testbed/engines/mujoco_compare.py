@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed.box_geometry import box_box_signed_distance
+from testbed.compare.metrics import error_lines
 from testbed.engines.mujoco import check_supported
 from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
 from testbed.physics import percentile_summary
@@ -184,12 +185,7 @@ def format_mujoco_figures(f: dict) -> str:
     lines = [
         f"scene {f['scene']} in MuJoCo {f['mujoco_version']} ({f['params']} contact parameters): "
         f"{'DIVERGED' if f['diverged'] else 'ran'} ({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
-        f"  position error max {f['position_error_max_m'] * 1e3:.3f} mm (final {f['final_position_error_max_m'] * 1e3:.3f} mm, "
-        f"angle {f['final_angle_error_max_deg']:.4f} deg); max penetration {f['max_penetration_m'] * 1e3:.3f} mm; "
-        f"energy gain max {f['energy_gain_max_J']:.3g} J",
-        "  wall per simulated second: MuJoCo {:.4f} s, Drake hydroelastic {:.3f} s{}".format(
-            f["wall_per_sim_s_mujoco"], f["wall_per_sim_s_truth"],
-            f", Drake point {f['wall_per_sim_s_point']:.3f} s" if "wall_per_sim_s_point" in f else ""),
+        *error_lines(f, "MuJoCo", f["wall_per_sim_s_mujoco"]),
     ]
     if "contact_point_error_median_m" in f:
         lines.append(f"  contact point vs Drake's centre of pressure: median {f['contact_point_error_median_m'] * 1e3:.1f} mm, "
