@@ -41,6 +41,7 @@ from testbed.boxes import BOX_TYPE, BoxSpec, ContactProperties, GroundSpec, vali
 from testbed.containers import CONTAINER_TYPES, ContainerType
 from testbed.effects import registry
 from testbed.errors import ScenarioError
+from testbed.scene_yaml import SceneDumper, apply_override, check_raw, parse_override, parse_yaml
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 
@@ -141,179 +142,13 @@ class Scenario:
 
 # ----------------------------------------------------------------------------- loading
 
-
-class _Tagged:
-    """A YAML node with a `!Tag` kept through PyYAML round trips (e.g. !Rpy)."""
-
-    def __init__(self, tag, value):
-        self.tag, self.value = tag, value
-
-
-class _Loader(yaml.SafeLoader):
-    pass
-
-
-class _Dumper(yaml.SafeDumper):
-    pass
-
-
-def _construct_tagged(loader, tag_suffix, node):
-    if isinstance(node, yaml.MappingNode):
-        value = loader.construct_mapping(node, deep=True)
-    elif isinstance(node, yaml.SequenceNode):
-        value = loader.construct_sequence(node, deep=True)
-    else:
-        value = loader.construct_scalar(node)
-    return _Tagged("!" + tag_suffix, value)
-
-
-_Loader.add_multi_constructor("!", _construct_tagged)
-_Dumper.add_representer(
-    _Tagged,
-    lambda dumper, t: (
-        dumper.represent_mapping(t.tag, t.value)
-        if isinstance(t.value, dict)
-        else dumper.represent_sequence(t.tag, t.value)
-        if isinstance(t.value, list)
-        else dumper.represent_scalar(t.tag, t.value)
-    ),
-)
-
-
-def _fields_of(schema) -> dict[str, object] | None:
-    """Field name -> type for a Python dataclass or a pydrake config class; else None."""
-    if dataclasses.is_dataclass(schema):
-        return typing.get_type_hints(schema)
-    if hasattr(schema, "__fields__") and isinstance(schema.__fields__, tuple):
-        return {f.name: f.type for f in schema.__fields__}
-    return None
-
-
-def _is_number(value) -> bool:
-    """A YAML number, or a string PyYAML left unparsed that reads as one ('1e7')."""
-    if isinstance(value, bool):
-        return False
-    if isinstance(value, (int, float)):
-        return True
-    if isinstance(value, str):
-        try:
-            float(value)
-            return True
-        except ValueError:
-            return False
-    return False
-
-
-def _join(path: str, key) -> str:
-    return f"{path}[{key}]" if isinstance(key, int) else (f"{path}.{key}" if path else str(key))
-
-
-def _check_raw(value, schema, path: str, source) -> None:
-    """Checks raw YAML data against `schema`, naming the field path on any mismatch."""
-    fields = _fields_of(schema)
-    origin = typing.get_origin(schema)
-    if fields is not None:
-        if schema is Transform:
-            if not isinstance(value, dict):
-                raise ScenarioError(source, path, "expected a transform mapping {translation: [x, y, z], rotation: !Rpy {deg: [r, p, y]}}")
-            unknown = set(value) - set(fields)
-            if unknown:
-                raise ScenarioError(source, _join(path, sorted(unknown)[0]), f"unknown field; expected one of: {', '.join(fields)}")
-            t = value.get("translation")
-            if t is not None and not (isinstance(t, list) and len(t) == 3 and all(_is_number(x) for x in t)):
-                raise ScenarioError(source, _join(path, "translation"), f"expected 3 numbers [x, y, z] in metres, got {t!r}")
-            return  # Drake checks the rotation variants itself
-        if not isinstance(value, dict):
-            raise ScenarioError(source, path, f"expected a mapping with fields ({', '.join(fields)}), got {type(value).__name__} {value!r}")
-        for key, sub in value.items():
-            if key not in fields:
-                what = "unknown effect" if path == "effects" else "unknown field"
-                raise ScenarioError(source, _join(path, key), f"{what} {key!r}; expected one of: {', '.join(fields)}")
-            _check_raw(sub, fields[key], _join(path, key), source)
-        return
-    if origin is typing.Union:
-        args = [a for a in typing.get_args(schema) if a is not type(None)]
-        if value is None:
-            return
-        if len(args) == 1:
-            _check_raw(value, args[0], path, source)
-        return
-    if origin in (list, typing.List):
-        if not isinstance(value, list):
-            raise ScenarioError(source, path, f"expected a list, got {value!r}")
-        (item,) = typing.get_args(schema)
-        for i, sub in enumerate(value):
-            _check_raw(sub, item, _join(path, i), source)
-        return
-    if schema is float:
-        if not _is_number(value):
-            raise ScenarioError(source, path, f"expected a number, got {value!r}")
-    elif schema is bool and not isinstance(value, bool):
-        raise ScenarioError(source, path, f"expected true or false, got {value!r}")
-    elif schema is int and (not isinstance(value, int) or isinstance(value, bool)):
-        raise ScenarioError(source, path, f"expected an integer, got {value!r}")
-    elif schema is str and not isinstance(value, str):
-        raise ScenarioError(source, path, f"expected a string, got {value!r}")
-
-
-def parse_override(text: str):
-    """'a.b[2].c=value' -> (['a', 'b', 2, 'c'], parsed YAML value). ValueError if malformed."""
-    if "=" not in text:
-        raise ValueError(f"override {text!r} is not of the form key=value")
-    key, raw = text.split("=", 1)
-    parts: list = []
-    for piece in key.strip().split("."):
-        name, *indices = piece.replace("]", "").split("[")
-        if not name:
-            raise ValueError(f"override key {key!r} has an empty part")
-        parts.append(name)
-        parts.extend(int(i) for i in indices)
-    return parts, yaml.load(raw, Loader=_Loader)
-
-
-def _apply_override(data: dict, parts: list, value, source) -> None:
-    node = data
-    for depth, part in enumerate(parts):
-        field = ".".join(str(p) for p in parts[: depth + 1])
-        if isinstance(part, int):
-            if not isinstance(node, list) or not -len(node) <= part < len(node):
-                raise ScenarioError(source, field, "--set: list index out of range")
-        elif not isinstance(node, dict):
-            raise ScenarioError(source, field, "--set: the parent is not a mapping")
-        if depth == len(parts) - 1:
-            if value is None and len(parts) == 2 and parts[0] == "effects":
-                node.pop(part, None)  # --set effects.<name>=null removes a declared effect
-            else:
-                node[part] = value
-        else:
-            if isinstance(part, str) and node.get(part) is None:
-                node[part] = {}
-            node = node[part]
-
-
-def _parse_yaml(text: str, source) -> dict:
-    try:
-        data = yaml.load(text, Loader=_Loader)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = " ".join(str(getattr(e, "problem", None) or e).split())
-        context = getattr(e, "context", None)
-        raise ScenarioError(source, "", f"malformed YAML{where}: {problem}" + (f" ({context})" if context else "")) from None
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise ScenarioError(source, "", f"expected a mapping of scene fields at the top level, got {type(data).__name__}")
-    return data
-
-
 _DERIVED_PLANT_FIELDS = {"contact_model": "model", "discrete_contact_approximation": "approximation"}
 
 
 def _typed_from_raw(data: dict, source) -> Scenario:
     """Raw YAML data -> Scenario, with field-path errors; plant contact fields must agree
     with effects.contact (they are derived from it)."""
-    _check_raw(data, Scenario, "", source)
+    check_raw(data, Scenario, "", source)
     effects = data.get("effects")
     if effects is not None:
         data["effects"] = {k: (v if v is not None else {}) for k, v in effects.items()}
@@ -323,7 +158,7 @@ def _typed_from_raw(data: dict, source) -> Scenario:
         default = getattr(registry()["contact"].Config(), contact_key)
         if given is not None and given != contact.get(contact_key, default):
             raise ScenarioError(source, f"plant.{plant_key}", f"is set from effects.contact.{contact_key}; set it there (got {given!r} here)")
-    clean = yaml.dump(data, Dumper=_Dumper, sort_keys=False)
+    clean = yaml.dump(data, Dumper=SceneDumper, sort_keys=False)
     defaults = Scenario()
     if "effects" in data:  # declared effects replace the default set entirely
         defaults.effects = Effects()
@@ -367,9 +202,9 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
             raise ScenarioError(path, "", "is empty; expected scene fields such as 'containers:' "
                                           "(the 'defaults' scene is `testbed run defaults`)")
     source = str(path) if path is not None else "<string>"
-    scenario = _typed_from_raw(_parse_yaml(text, source), source)
+    scenario = _typed_from_raw(parse_yaml(text, source), source)
     if overrides:
-        data = _parse_yaml(yaml_dump_typed(scenario), source)
+        data = parse_yaml(yaml_dump_typed(scenario), source)
         for key in _DERIVED_PLANT_FIELDS:
             data.get("plant", {}).pop(key, None)
         for override in overrides:
@@ -377,7 +212,7 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
                 parts, value = parse_override(override)
             except (ValueError, yaml.YAMLError) as e:
                 raise ScenarioError(source, "--set", str(e)) from None
-            _apply_override(data, parts, value, source)
+            apply_override(data, parts, value, source)
         scenario = _typed_from_raw(data, f"{source} (with --set overrides)")
     validate_scenario(scenario, source)
     return scenario

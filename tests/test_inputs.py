@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 
 from testbed import cli
 from testbed.errors import ScenarioError
-from testbed.scenario import BOUNDS, _Dumper, _Loader, dump_scenario, load_scenario, shipped_scenes
+from testbed.scenario import BOUNDS, dump_scenario, load_scenario, shipped_scenes
+from testbed.scene_yaml import SceneDumper, SceneLoader
 
 from test_bad_input import GOOD  # noqa: E402  (the same minimal valid scene)
 
@@ -101,7 +102,7 @@ def test_run_all_variant_loads_back():
 
 # ----------------------------------------------------------------------------- generated bad input
 
-_SCENES = {n: yaml.load(p.read_text(), Loader=_Loader) for n, p in shipped_scenes().items()}  # keeps !Rpy tags
+_SCENES = {n: yaml.load(p.read_text(), Loader=SceneLoader) for n, p in shipped_scenes().items()}  # keeps !Rpy tags
 
 _junk = st.one_of(
     st.none(), st.booleans(), st.integers(-10**12, 10**12),
@@ -139,7 +140,7 @@ def mutated_scene(draw):
             del parent[path[-1]]
         elif isinstance(parent, dict):
             parent[draw(st.text(min_size=1, max_size=8))] = parent.pop(path[-1])
-    return yaml.dump(data, Dumper=_Dumper, allow_unicode=True)
+    return yaml.dump(data, Dumper=SceneDumper, allow_unicode=True)
 
 
 @settings(max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow])
