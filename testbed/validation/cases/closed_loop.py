@@ -157,13 +157,17 @@ class ClosedLoopCase(CaseKind):
         if not records:
             return []
         judged = [(r, self.gates(r)) for r in records]
-        held = [r["result"]["scene"] for r, g in judged if g and all(x.passed for x in g)]
+        pinned = [r["result"]["scene"] for r, g in judged
+                  if g and all(x.passed for x in g) and any(x.name.endswith("(known limit)") for x in g)]
+        held = [r["result"]["scene"] for r, g in judged if g and all(x.passed for x in g)
+                and r["result"]["scene"] not in pinned]
         failed = [r["result"]["scene"] for r, g in judged if g and not all(x.passed for x in g)]
         speed = [r["result"]["predictors"][GATED]["speedup_vs_truth"] for r in records
                  if GATED in r["result"]["predictors"]]
         paper = [r["result"]["scene"] for r in records if r["result"]["predictors"].get("paper", {}).get("diverged")]
         head = (f"Closed loop: the improved predictor drives {len(held)} of {len(records)} scenes within its gates"
                 + (f" (fails: {', '.join(failed)})" if failed else "")
+                + (f"; {', '.join(pinned)} only within pinned known limits" if pinned else "")
                 + (f", at {_range(speed)}x the speed of Drake hydroelastic" if speed else "")
                 + f"; the paper's MLP diverges on {len(paper)} of {len(records)}"
                 + (f" ({', '.join(paper)})" if paper else "") + ".")
