@@ -8,32 +8,16 @@ modules import pydrake, the studies and matplotlib only inside their hooks).
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
-
+from testbed.plugins import PackageRegistry
 from testbed.validation.cases.base import Case, CaseKind
 
-_REGISTRY: dict[str, CaseKind] = {}
-_DISCOVERED = False
-
-
-def register(cls: type[CaseKind]) -> type[CaseKind]:
-    """Class decorator adding a CaseKind subclass to the registry under `cls.name`."""
-    if not cls.name or cls.name in _REGISTRY:
-        raise RuntimeError(f"case kind {cls.name!r} is empty or already registered")
-    _REGISTRY[cls.name] = cls()
-    return cls
+_REGISTRY = PackageRegistry(__name__, __path__, "case kind", instantiate=True)
+register = _REGISTRY.register  # class decorator: adds a CaseKind subclass (as an instance)
 
 
 def registry() -> dict[str, CaseKind]:
     """All case kinds by name, in suite order."""
-    global _DISCOVERED
-    if not _DISCOVERED:
-        for module in pkgutil.iter_modules(__path__):
-            if module.name != "base":
-                importlib.import_module(f"{__name__}.{module.name}")
-        _DISCOVERED = True
-    return dict(sorted(_REGISTRY.items(), key=lambda item: (item[1].order, item[0])))
+    return _REGISTRY.entries()
 
 
 def ok_records(records: list[dict], kind: str) -> list[dict]:
