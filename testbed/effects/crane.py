@@ -111,22 +111,22 @@ def _trapezoid(t, distance, speed, accel) -> tuple[float, float]:
     return 0.5 * accel * t_ramp**2 + peak * (t - t_ramp), peak
 
 
-class CraneSystem(LeafSystem):
-    def __init__(self, assembly, config: CraneConfig):
-        super().__init__()
-        self.set_name("crane")
-        plant = assembly.plant
-        spec = next(c for c in assembly.scenario.containers if c.name == config.container)
-        self._body = assembly.bodies[spec.name]
-        self._body_index = int(self._body.index())
-        self._geometries = set(plant.GetCollisionGeometriesForBody(self._body))
-        learned = assembly.effects.get("learned_dynamics")  # container pairs are off Drake's contact then
-        self._learned = (learned.system, assembly.scenario.containers.index(spec)) if learned else None
+class RopeModel:
+    """The four ropes on one carried container, independent of any simulator (this
+    effect's CraneSystem and the MuJoCo translator both use it).
+
+    Rope i runs from the sheave (x_T(t) + sx, y_T + sy, trolley_height) to the top corner
+    casting (sx, sy, h/2) of the container, sx = +-L/2, sy = +-W/2; its tension is
+    T = max(0, (EA / L_r) (l - L_r) + c (dl/dt - dL/dt)), L_r = L0 + dL(t), with L0 set so
+    the ropes carry the weight at t = 0 and c for `rope_damping_ratio` of the four ropes.
+    """
+
+    def __init__(self, config: CraneConfig, spec):
         half = spec.container_type().half_size
-        self._p_BoC_B = np.array([[sx * half[0], sy * half[1], half[2]] for sx in (-1, 1) for sy in (-1, 1)])  # (4, 3)
+        self.p_BoC_B = np.array([[sx * half[0], sy * half[1], half[2]] for sx in (-1, 1) for sy in (-1, 1)])  # (4, 3)
         X_WC0 = spec.pose()
-        p_WC0 = X_WC0.rotation().matrix() @ self._p_BoC_B.T + X_WC0.translation()[:, None]  # (3, 4) corners
-        self._sheave_offsets = self._p_BoC_B[:, :2].copy()  # (4, 2) sheave x, y offsets from the trolley
+        p_WC0 = X_WC0.rotation().matrix() @ self.p_BoC_B.T + X_WC0.translation()[:, None]  # (3, 4) corners
+        self._sheave_offsets = self.p_BoC_B[:, :2].copy()  # (4, 2) sheave x, y offsets from the trolley
         self._y_T = X_WC0.translation()[1]
         self._height = config.trolley_height
         length0 = self._height - p_WC0[2].mean()  # mean rope length at t = 0 [m]
@@ -138,7 +138,41 @@ class CraneSystem(LeafSystem):
         self._L0 = length0 - stretch  # unstretched rope length at t = 0 [m]
         k_total = 4.0 * self._EA / length0
         self._c = 2.0 * config.rope_damping_ratio * math.sqrt(k_total * mass) / 4.0  # per rope [N s/m]
-        self._profile = Profile(config.moves, X_WC0.translation()[0])
+        self.profile = Profile(config.moves, X_WC0.translation()[0])
+
+    def sheaves_W(self, t: float) -> np.ndarray:
+        """(4, 3) sheave positions [m] at time t."""
+        x_T = self.profile(t)[0]
+        return np.column_stack([x_T + self._sheave_offsets[:, 0], self._y_T + self._sheave_offsets[:, 1],
+                                np.full(4, self._height)])
+
+    def corner_forces(self, t: float, R_WB, p_WBo, v_WBo, w_WB) -> tuple[np.ndarray, np.ndarray]:
+        """(f (4, 3) [N] rope forces on the corners in W, p_BoC_W (4, 3) [m] the corners
+        from the body origin in W) for pose R_WB, p_WBo and velocity v_WBo, w_WB (in W)."""
+        _, v_T, dl, dl_dot = self.profile(t)
+        p_BoC_W = self.p_BoC_B @ np.asarray(R_WB).T  # (4, 3)
+        v_WC = np.asarray(v_WBo) + np.cross(w_WB, p_BoC_W)  # (4, 3)
+        rope = self.sheaves_W(t) - (np.asarray(p_WBo) + p_BoC_W)  # (4, 3) corner -> sheave
+        length = np.linalg.norm(rope, axis=1)
+        u = rope / length[:, None]
+        length_dot = np.einsum("ij,ij->i", np.array([v_T, 0.0, 0.0]) - v_WC, u)
+        rest = self._L0 + dl
+        tension = np.maximum(0.0, self._EA / rest * (length - rest) + self._c * (length_dot - dl_dot))  # (4,) [N]
+        return tension[:, None] * u, p_BoC_W
+
+
+class CraneSystem(LeafSystem):
+    def __init__(self, assembly, config: CraneConfig):
+        super().__init__()
+        self.set_name("crane")
+        plant = assembly.plant
+        spec = next(c for c in assembly.scenario.containers if c.name == config.container)
+        self._body = assembly.bodies[spec.name]
+        self._body_index = int(self._body.index())
+        self._geometries = set(plant.GetCollisionGeometriesForBody(self._body))
+        learned = assembly.effects.get("learned_dynamics")  # container pairs are off Drake's contact then
+        self._learned = (learned.system, assembly.scenario.containers.index(spec)) if learned else None
+        self._ropes = RopeModel(config, spec)
         self._seated_speed = config.seated_speed
         self._release_time = config.release_time
         self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
@@ -159,9 +193,12 @@ class CraneSystem(LeafSystem):
 
     def sheaves_W(self, t: float) -> np.ndarray:
         """(4, 3) sheave positions [m] at time t."""
-        x_T = self._profile(t)[0]
-        return np.column_stack([x_T + self._sheave_offsets[:, 0], self._y_T + self._sheave_offsets[:, 1],
-                                np.full(4, self._height)])
+        return self._ropes.sheaves_W(t)
+
+    @property
+    def profile_end_s(self) -> float:
+        """[s] when the trolley and hoist profile ends."""
+        return self._ropes.profile.end_time
 
     def _in_contact(self, results) -> bool:
         """Whether any contact involving the carried container is reported."""
@@ -204,21 +241,8 @@ class CraneSystem(LeafSystem):
             return
         X_WB = self._poses.Eval(context)[self._body_index]
         V_WB = self._velocities.Eval(context)[self._body_index]
-        R_WB, p_WBo = X_WB.rotation().matrix(), X_WB.translation()
-        x_T, v_T, dl, dl_dot = self._profile(t)
-        p_BoC_W = self._p_BoC_B @ R_WB.T  # (4, 3)
-        p_WC = p_WBo + p_BoC_W
-        v_WC = V_WB.translational() + np.cross(V_WB.rotational(), p_BoC_W)  # (4, 3)
-        sheaves = self.sheaves_W(t)
-        rope = sheaves - p_WC  # (4, 3) corner -> sheave
-        length = np.linalg.norm(rope, axis=1)
-        u = rope / length[:, None]
-        v_sheave = np.array([v_T, 0.0, 0.0])
-        length_dot = np.einsum("ij,ij->i", v_sheave - v_WC, u)
-        rest = self._L0 + dl
-        k = self._EA / rest
-        tension = np.maximum(0.0, k * (length - rest) + self._c * (length_dot - dl_dot))  # (4,) [N]
-        f = tension[:, None] * u  # (4, 3) on the container at its corners
+        f, p_BoC_W = self._ropes.corner_forces(t, X_WB.rotation().matrix(), X_WB.translation(),
+                                               V_WB.translational(), V_WB.rotational())  # (4, 3) each
         tau = np.cross(p_BoC_W, f).sum(axis=0)
         force.F_Bq_W = SpatialForce(tau=tau, f=f.sum(axis=0))
         output.set_value([force])
@@ -261,5 +285,5 @@ class CraneEffect(Effect):
 
     def summarize(self, tables) -> dict:
         released = self.crane.release_log
-        return {"crane_profile_end_s": self.crane._profile.end_time,
+        return {"crane_profile_end_s": self.crane.profile_end_s,
                 "crane_release_time_s": released[0] if released else None}

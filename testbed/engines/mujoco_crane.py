@@ -1,8 +1,7 @@
 """The `crane` effect in MuJoCo: four tension-only ropes from a kinematic trolley, twistlocks.
 
-The same model as testbed/effects/crane.py (its Profile gives the trolley position and rope
-length over time; the rope law, static initial stretch, damping and release rule are those
-of CraneSystem), applied to the carried body through xfrc_applied before every mj_step:
+The same model as testbed/effects/crane.py (its RopeModel: trolley profile, rope law,
+static initial stretch and damping; the release rule is CraneSystem's), applied to the carried body through xfrc_applied before every mj_step:
 - rope i runs from the sheave (x_T(t) + sx, y_T + sy, trolley_height) to the top corner
   casting (sx, sy, h/2) of the container, sx = +-L/2, sy = +-W/2; tension
   T = max(0, (EA / L_r) (l - L_r) + c (dl/dt - dL/dt)), L_r = L0 + dL(t);
@@ -14,12 +13,10 @@ of CraneSystem), applied to the carried body through xfrc_applied before every m
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
-from testbed.effects.crane import Profile
-from testbed.physics import GRAVITY
+from testbed.effects.crane import RopeModel
 
 
 class CraneRopes:
@@ -27,18 +24,7 @@ class CraneRopes:
 
     def __init__(self, config, spec, model, body_id: int, geom_id: int, qadr: int, vadr: int):
         self._body, self._geom, self._qadr, self._vadr = body_id, geom_id, qadr, vadr
-        half = spec.container_type().half_size
-        self._p_BoC_B = np.array([[sx * half[0], sy * half[1], half[2]] for sx in (-1, 1) for sy in (-1, 1)])  # (4, 3)
-        X_WC0 = spec.pose()
-        p_WC0 = X_WC0.rotation().matrix() @ self._p_BoC_B.T + X_WC0.translation()[:, None]  # (3, 4)
-        self._sheave_offsets = self._p_BoC_B[:, :2].copy()
-        self._y_T, self._height = X_WC0.translation()[1], config.trolley_height
-        length0 = self._height - p_WC0[2].mean()
-        mass = spec.total_mass()
-        self._EA = config.rope_EA
-        self._L0 = length0 - mass * GRAVITY / 4.0 / (self._EA / length0)
-        self._c = 2.0 * config.rope_damping_ratio * math.sqrt(4.0 * self._EA / length0 * mass) / 4.0
-        self._profile = Profile(config.moves, X_WC0.translation()[0])
+        self._ropes = RopeModel(config, spec)
         self._seated_speed, self._release_time = config.seated_speed, config.release_time
         self._com_B = np.asarray(spec.com_offset, dtype=float)
         self.release_time: float | None = None  # [s] when the twistlocks opened
@@ -59,18 +45,7 @@ class CraneRopes:
             p_WBo = data.qpos[self._qadr:self._qadr + 3]
             v_WBo = data.qvel[self._vadr:self._vadr + 3]
             w_W = R_WB @ data.qvel[self._vadr + 3:self._vadr + 6]
-            x_T, v_T, dl, dl_dot = self._profile(t)
-            p_BoC_W = self._p_BoC_B @ R_WB.T  # (4, 3)
-            v_WC = v_WBo + np.cross(w_W, p_BoC_W)
-            sheaves = np.column_stack([x_T + self._sheave_offsets[:, 0], self._y_T + self._sheave_offsets[:, 1],
-                                       np.full(4, self._height)])
-            rope = sheaves - (p_WBo + p_BoC_W)
-            length = np.linalg.norm(rope, axis=1)
-            u = rope / length[:, None]
-            length_dot = np.einsum("ij,ij->i", np.array([v_T, 0.0, 0.0]) - v_WC, u)
-            rest = self._L0 + dl
-            tension = np.maximum(0.0, self._EA / rest * (length - rest) + self._c * (length_dot - dl_dot))  # (4,) [N]
-            f = tension[:, None] * u  # (4, 3) at the corners
+            f, p_BoC_W = self._ropes.corner_forces(t, R_WB, p_WBo, v_WBo, w_W)  # (4, 3) each, in W
             p_cm_C_W = p_BoC_W - R_WB @ self._com_B  # corners from the COM
             data.xfrc_applied[self._body, :3] += f.sum(axis=0)
             data.xfrc_applied[self._body, 3:] += np.cross(p_cm_C_W, f).sum(axis=0)
