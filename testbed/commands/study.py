@@ -1,4 +1,4 @@
-"""`testbed study sim|query|stability`: one study on its own, written to a directory."""
+"""`testbed study sim|query|stability|defaults`: one study on its own, written to a directory."""
 
 from __future__ import annotations
 
@@ -9,21 +9,22 @@ from testbed.commands import timestamp
 from testbed.records import write_atomic
 
 NAME = "study"
-HELP = "one study on its own: sim (time step x model x approximation), query or stability"
+HELP = "one study on its own: sim (time step x model x approximation), query, stability or defaults (contact settings judged over hard cases)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("which", choices=["sim", "query", "stability"])
+    parser.add_argument("which", choices=["sim", "query", "stability", "defaults"])
     parser.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
     parser.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
     parser.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.add_argument("--workers", type=int, default=2, help="processes of the defaults sweep (default 2)")
 
 
 def run(args) -> int:
     out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{timestamp()}"
     out.mkdir(parents=True, exist_ok=True)
-    {"stability": _stability, "query": _query, "sim": _sim}[args.which](args, out)
+    {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
     print(f"study output: {out}")
     return 0
 
@@ -67,3 +68,22 @@ def _sim(args, out: Path) -> None:
               f"deviation {r['deviation_m'] * 1e3:9.3f} mm  {r['status']}")
     for r in costs:
         print(f"effect {r['effect']:16s} " + (f"{r['ratio']:.2f}x" if r.get("status") == "ok" else str(r.get("status"))))
+
+
+def _defaults(args, out: Path) -> None:
+    import time
+
+    from testbed.document import to_html, to_markdown
+    from testbed.studies.defaults import CASE_NAMES, grid, report_sections, summarize, sweep
+
+    start, partial = time.perf_counter(), out / "defaults_rows.jsonl"
+    partial.write_text("")
+    with partial.open("a") as f:  # each (setting, case) row as it arrives: a cut-short sweep keeps its rows
+        rows = sweep(grid(args.quick), ("near_parallel",) if args.quick else CASE_NAMES, workers=args.workers,
+            duration=0.3 if args.quick else None, on_row=lambda r: (f.write(json.dumps(r, default=float) + "\n"), f.flush()))
+    summary = summarize(rows)
+    write_atomic(out / "defaults.json", json.dumps({"rows": rows, "summary": summary}, indent=1, default=float))
+    sections = report_sections(summary, time.perf_counter() - start)
+    write_atomic(out / "defaults.md", to_markdown("Contact defaults sweep", sections))
+    write_atomic(out / "defaults.html", to_html("Contact defaults sweep", sections))
+    print((out / "defaults.md").read_text())

@@ -21,6 +21,9 @@ class ContactConfig:
     approximation: str = "sap"  # Drake's discrete_contact_approximation, one of APPROXIMATIONS
     # Replaces the containers' drake:hydroelastic_margin [m] when set (SDF: 0; sdf/README.md).
     hydroelastic_margin: typing.Optional[float] = None
+    # Replaces drake:hydroelastic_modulus [Pa] on every geometry when set (SDF: 1e8 Pa); the
+    # defaults sweep (testbed study defaults) varies it.
+    hydroelastic_modulus: typing.Optional[float] = None
 
 
 @register
@@ -38,6 +41,9 @@ class ContactEffect(Effect):
         margin = self.config.hydroelastic_margin
         if margin is not None and not (math.isfinite(margin) and margin >= 0):
             raise self.fail("hydroelastic_margin", f"expected a non-negative length [m], got {margin}")
+        modulus = self.config.hydroelastic_modulus
+        if modulus is not None and not (math.isfinite(modulus) and 1e3 <= modulus <= 1e13):
+            raise self.fail("hydroelastic_modulus", f"expected a modulus in [1e3, 1e13] Pa, got {modulus}")
 
     def plan(self, plan: ModelPlan) -> None:
         plan.collision = True
@@ -45,6 +51,8 @@ class ContactEffect(Effect):
         plan.discrete_contact_approximation = self.config.approximation
         if self.config.hydroelastic_margin is not None:
             plan.proximity_overrides["hydroelastic_margin"] = self.config.hydroelastic_margin
+        if self.config.hydroelastic_modulus is not None:
+            plan.proximity_overrides["hydroelastic_modulus"] = self.config.hydroelastic_modulus
 
 
 def driving_kind(model: str) -> str:

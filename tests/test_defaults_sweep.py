@@ -1,0 +1,103 @@
+"""The contact-defaults sweep (testbed/studies/defaults.py, `testbed study defaults`).
+
+The verdicts are checked on a case whose physics is known: a 20 t box released 2 mm above
+a fixed one ("resting_pair") and left to settle for 1 s. The shipped setting must pass every
+criterion there, and two settings that are wrong on purpose must fail the criterion they break.
+"""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from testbed.document import to_html, to_markdown
+from testbed.studies.defaults import CRITERIA, Setting, grid, report_sections, summarize, sweep
+
+SHIPPED = Setting(1e8, "sap", 0.0, 1e-3)
+# 1e5 Pa: a soft foam. Measured: the box sinks about 670 mm into the lower one in 0.5 s (bound 5 mm).
+SOFT = Setting(1e5, "sap", 0.0, 1e-3)
+# h = 0.1 s, the largest step a scene accepts: the 2 mm drop lands within one step, measured
+# penetration 96 mm and an energy gain of 2.3e4 J (tolerance 196 J = 1e-3 x m g x 1 m).
+COARSE = Setting(1e8, "sap", 0.0, 1e-1)
+
+
+@pytest.fixture(scope="module")
+def judged():
+    """Summary rows of the three settings on the resting pair (in this process), by label."""
+    rows = sweep([SHIPPED, SOFT, COARSE], ("resting_pair",), workers=1, duration=1.0)
+    return rows, {o["label"]: o for o in summarize(rows)}
+
+
+def test_the_modulus_reaches_every_geometry():
+    """effects.contact.hydroelastic_modulus is written on every geometry's proximity properties."""
+    from testbed.builder import build_scene
+    from testbed.scenario import load_scenario
+
+    scene = build_scene(load_scenario("two_stack", overrides=["effects.contact.hydroelastic_modulus=3e9"]))
+    inspector = scene.scene_graph.model_inspector()
+    moduli = {inspector.GetProximityProperties(g).GetProperty("hydroelastic", "hydroelastic_modulus")
+              for g in inspector.GetAllGeometryIds() if inspector.GetProximityProperties(g) is not None
+              and inspector.GetProximityProperties(g).HasProperty("hydroelastic", "hydroelastic_modulus")}
+    assert moduli == {3e9}
+
+
+def test_shipped_setting_passes_every_criterion_at_rest(judged):
+    _, by_label = judged
+    o = by_label[SHIPPED.label]
+    physics = [c for c in CRITERIA if c != "cost"]  # cost is a timing ratio: reported, never asserted in a test
+    assert {c: o["verdicts"][c] for c in physics} == {c: "pass" for c in physics}, o["failures"]
+    # stability.py's bounds: penetration 5 mm, drift 1 mm/min, |F/W - 1| 1 %; measured 1.05 mm, 2e-5 mm/min, 1e-7
+    assert o["max_penetration_mm"] < 5.0
+    assert o["force_balance_error"] < 0.01
+
+
+def test_soft_modulus_fails_penetration(judged):
+    _, by_label = judged
+    o = by_label[SOFT.label]
+    assert o["verdicts"]["penetration"] == "FAIL"
+    assert o["max_penetration_mm"] > 100.0  # far past the 5 mm bound, not a marginal miss
+    assert o["verdicts"]["convergence"] == "pass"  # it ran; it is judged on what it did
+    # drift and force balance are not judged once a case has failed another criterion
+    assert o["verdicts"]["drift"] == "n/a" and o["verdicts"]["force_balance"] == "n/a"
+
+
+def test_coarse_step_fails_energy_and_penetration(judged):
+    _, by_label = judged
+    o = by_label[COARSE.label]
+    assert o["verdicts"]["energy"] == "FAIL" and o["energy_gain_over_tol"] > 10.0
+    assert o["verdicts"]["penetration"] == "FAIL"
+
+
+def test_solver_failure_and_timeout_are_results():
+    base = {"modulus": 1e9, "approximation": "sap", "margin": 0.0, "time_step": 1e-3}
+    ok = {**base, "case_kind": "edge_on_edge", "stable": True, "failed": "", "max_penetration_m": 0.01,
+          "penetration_bound_m": 0.02, "energy_gain_J": 0.0, "energy_tolerance_J": 196.2, "wall_per_sim_s": 1.0}
+    rows = [ok, {**base, "case_kind": "crane_edge_landing", "stable": False, "failed": "solver: no convergence"},
+            {**base, "case_kind": "corner_on_face", "stable": False, "failed": "timeout"}]
+    (o,) = summarize(rows)
+    assert o["verdicts"]["convergence"] == "FAIL" and o["converged"] == 1 and o["cases"] == 3
+    assert o["verdicts"]["penetration"] == "pass"  # judged on the case that ran
+    assert any("no convergence" in f for f in o["failures"])
+
+
+def test_quick_sweep_in_a_pool_renders(judged):
+    rows, _ = judged
+    quick = grid(quick=True)
+    assert 2 <= len(quick) <= 4
+    pooled = sweep(quick, ("near_parallel",), workers=2, duration=0.3)
+    assert len(pooled) == len(quick) and all("error" not in r["failed"] for r in pooled)
+    summary = summarize(pooled + rows)
+    for o in summary:
+        assert set(o["verdicts"]) == set(CRITERIA)
+        assert set(o["verdicts"].values()) <= {"pass", "FAIL", "n/a"}
+    json.dumps(summary, default=float)
+    sections = report_sections(summary, wall_s=1.0)
+    md, page = to_markdown("sweep", sections), to_html("sweep", sections)
+    for o in summary:
+        assert o["label"] in md and o["label"] in page
+
+
+def test_cli_lists_defaults_study():
+    out = subprocess.run([sys.executable, "-m", "testbed.cli", "study", "--help"], capture_output=True, text=True)
+    assert "defaults" in out.stdout, out.stderr
