@@ -26,7 +26,7 @@ from learned_contact import cache
 from learned_contact.geometry import contact_type
 from learned_contact.sampling import Proposals, sample
 
-LABEL_VERSION = 1  # bump when labelling or sampling changes meaning
+LABEL_VERSION = 2  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus)
 _BISECT_TOL = 1e-6  # [m]
 
 # Per-process state: (type_a, type_b) -> testbed.pair_plant.ContainerPair

@@ -17,21 +17,44 @@ import numpy as np
 from testbed.containers import CONTAINER_TYPES
 from testbed.physics import GRAVITY
 
-# [Pa/m] fitted pressure stiffness per unordered size pair (fit_pressure_stiffness;
-# tests/test_closed_loop.py re-fits it against Drake).
+# [Pa] the modulus the learned law's stiffness is fitted at: 1e8 Pa, NOT the containers' shipped
+# 1e9 Pa (HYDROELASTIC_MODULUS). A law as stiff as the 1e9 Pa truth is unstable in the explicit
+# step at 1 ms for the light and hard-landing scenes (measured: (h w)^2 + 2 h c / m = 14.2 on
+# windy_stack, 6.6 on stack_slide_off; crane_hard_landing diverges at t = 0.79 s; `testbed study
+# defaults` column "learned loop"), so the learned closed loop stays 10x softer than its truth,
+# a modelling error its gates judge (sdf/README.md).
+KAPPA_MODULUS = 1.0e8
+# [Pa/m] fitted pressure stiffness per unordered size pair at KAPPA_MODULUS (fit_pressure_stiffness;
+# tests/test_closed_loop.py re-fits it against Drake). Drake's pressure is linear in the modulus:
+# pressure_stiffness() scales it to another modulus (what a law as stiff as that truth would use).
 FITTED_KAPPA = {frozenset(p): 4.1017e7 for p in
                 [("1CC",), ("1AA",), ("1AAA",), ("1CC", "1AA"), ("1CC", "1AAA"), ("1AA", "1AAA")]}
 
 
-def fit_pressure_stiffness(type_a: str, type_b: str, depths=(5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3)) -> tuple[float, float]:
+def pressure_stiffness(type_a: str, type_b: str, modulus: float = KAPPA_MODULUS) -> float:
+    """kappa [Pa/m] of a size pair when every geometry has `modulus` [Pa]."""
+    return FITTED_KAPPA[frozenset((type_a, type_b))] * modulus / KAPPA_MODULUS
+
+
+def law_modulus(scenario) -> float:
+    """[Pa] the containers' modulus a scene's learned law works at: the scene's
+    effects.contact.hydroelastic_modulus when it sets one, else KAPPA_MODULUS."""
+    contact = getattr(scenario.effects, "contact", None)
+    given = getattr(contact, "hydroelastic_modulus", None) if contact is not None else None
+    return KAPPA_MODULUS if given is None else float(given)
+
+
+def fit_pressure_stiffness(type_a: str, type_b: str, depths=(5e-5, 1e-4, 2e-4, 5e-4, 1e-3, 2e-3, 5e-3),
+                           modulus: float = KAPPA_MODULUS) -> tuple[float, float]:
     """(kappa [Pa/m], worst relative deviation) of Drake's static hydroelastic force F(d)
-    = kappa * A * d, B centred on A's top face, aligned, overlap d [m], A the face overlap."""
+    = kappa * A * d, B centred on A's top face, aligned, overlap d [m], A the face overlap,
+    both boxes compliant with `modulus` [Pa]."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
     from testbed.contact_geometry import static_pressure, surface_face_arrays
     from testbed.pair_plant import ContainerPair
 
-    pair = ContainerPair(type_a, type_b)
+    pair = ContainerPair(type_a, type_b, modulus=modulus)
     s_a, s_b = np.asarray(CONTAINER_TYPES[type_a].size), np.asarray(CONTAINER_TYPES[type_b].size)
     area = min(s_a[0], s_b[0]) * min(s_a[1], s_b[1])
     d = np.asarray(depths)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from testbed.boxes import BOX_TYPE
-from testbed.containers import CONTAINER_TYPES, ContainerType
+from testbed.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS, ContainerType
 from testbed.errors import ModelError
 
 SDF_DIR = Path(__file__).resolve().parent.parent / "sdf"  # the repo's sdf/ folder
@@ -81,7 +81,7 @@ def container_sdf(
 # Proximity values of a generic box or ground when the scene gives none: the containers'
 # (sdf/README.md says why each value).
 BOX_DEFAULT_PROPERTIES: dict[str, float] = {
-    "hydroelastic_modulus": 1.0e8, "hydroelastic_margin": 0.0, "hunt_crossley_dissipation": 5.0,
+    "hydroelastic_modulus": HYDROELASTIC_MODULUS, "hydroelastic_margin": 0.0, "hunt_crossley_dissipation": 5.0,
     "relaxation_time": 1.0e-3, "point_contact_stiffness": 2.0e9, "mu_dynamic": 0.4, "mu_static": 0.5,
 }
 PROXIMITY_TAGS = tuple(BOX_DEFAULT_PROPERTIES)

@@ -20,11 +20,12 @@ def _rigid(sdf: str) -> str:
 class ContainerPair:
     """Containers A and B of ISO types type_a, type_b (e.g. "1CC") in one plant.
 
-    rigid_b makes B rigid_hydroelastic (compliant-rigid hydroelastic contact).
+    rigid_b makes B rigid_hydroelastic (compliant-rigid hydroelastic contact); modulus [Pa]
+    replaces the SDF's hydroelastic modulus on both (None: as shipped).
     Attributes: plant, context (the plant's), body_b, gid_a, gid_b (GeometryIds).
     """
 
-    def __init__(self, type_a: str, type_b: str, *, rigid_b: bool = False):
+    def __init__(self, type_a: str, type_b: str, *, rigid_b: bool = False, modulus: float | None = None):
         from pydrake.math import RigidTransform
         from pydrake.multibody.parsing import Parser
         from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel
@@ -41,6 +42,9 @@ class ContainerPair:
         for name, code in (("A", type_a), ("B", type_b)):
             ctype = container_type(code)
             sdf = container_sdf(ctype, name=name, mass=ctype.tare_mass)
+            if modulus is not None:
+                sdf = re.sub(r"<drake:hydroelastic_modulus>[^<]*</drake:hydroelastic_modulus>",
+                             f"<drake:hydroelastic_modulus>{float(modulus)!r}</drake:hydroelastic_modulus>", sdf)
             models.append(parser.AddModelsFromString(_rigid(sdf) if name == "B" and rigid_b else sdf, "sdf")[0])
         plant.Finalize()
         self.diagram = builder.Build()

@@ -103,8 +103,13 @@ def _default_plant() -> MultibodyPlantConfig:
     # Sampled output ports stay on: the contact logger pairs each sampled result
     # with the state it came from, and unsampled ports would solve contact twice.
     # contact_model / discrete_contact_approximation mirror the default `contact` effect.
+    # stiction_tolerance 1e-6 m/s, not Drake's 1e-4: the 'similar' approximation (the default
+    # for hydroelastic contact) regularises friction with it, and at 1e-4 m/s a stack creeps
+    # under a steady side load (windy_stack: 2.3 / 4.6 / 6.8 mm/min per tier; 1e-6: 0.08 / 0.22 /
+    # 0.28, as SAP's 0.07 / 0.20 / 0.25; same cost; sdf/README.md). SAP does not use it.
     return MultibodyPlantConfig(
-        time_step=1e-3, contact_model="hydroelastic_with_fallback", discrete_contact_approximation="sap"
+        time_step=1e-3, contact_model="hydroelastic_with_fallback", discrete_contact_approximation="similar",
+        stiction_tolerance=1e-6,
     )
 
 
@@ -152,11 +157,15 @@ def _typed_from_raw(data: dict, source) -> Scenario:
     effects = data.get("effects")
     if effects is not None:
         data["effects"] = {k: (v if v is not None else {}) for k, v in effects.items()}
+    from testbed.effects.contact import drake_approximation
+
     contact = (data.get("effects") or {}).get("contact") or {}
+    defaults = registry()["contact"].Config()
+    derived = {k: contact.get(k, getattr(defaults, k)) for k in _DERIVED_PLANT_FIELDS.values()}
+    derived["approximation"] = drake_approximation(derived["approximation"], derived["model"])  # 'auto' resolved
     for plant_key, contact_key in _DERIVED_PLANT_FIELDS.items():
         given = (data.get("plant") or {}).get(plant_key)
-        default = getattr(registry()["contact"].Config(), contact_key)
-        if given is not None and given != contact.get(contact_key, default):
+        if given is not None and given != derived[contact_key]:
             raise ScenarioError(source, f"plant.{plant_key}", f"is set from effects.contact.{contact_key}; set it there (got {given!r} here)")
     clean = yaml.dump(data, Dumper=SceneDumper, sort_keys=False)
     defaults = Scenario()
@@ -170,8 +179,7 @@ def _typed_from_raw(data: dict, source) -> Scenario:
         first = " ".join(str(e).strip().splitlines()[0].split()) if str(e).strip() else type(e).__name__
         raise ScenarioError(source, "", f"does not match the scene schema: {first}") from None
     if scenario.effects.contact is not None:  # keep the dumped plant config truthful
-        scenario.plant.contact_model = scenario.effects.contact.model
-        scenario.plant.discrete_contact_approximation = scenario.effects.contact.approximation
+        _derive_plant(scenario)
     return scenario
 
 
@@ -307,9 +315,17 @@ def dump_scenario(scenario: Scenario) -> str:
     """
     if scenario.effects.contact is not None:
         scenario = copy.deepcopy(scenario)
-        scenario.plant.contact_model = scenario.effects.contact.model
-        scenario.plant.discrete_contact_approximation = scenario.effects.contact.approximation
+        _derive_plant(scenario)
     return yaml_dump_typed(scenario)
+
+
+def _derive_plant(scenario: Scenario) -> None:
+    """The plant's copies of the contact effect's model and (resolved) approximation."""
+    from testbed.effects.contact import drake_approximation
+
+    contact = scenario.effects.contact
+    scenario.plant.contact_model = contact.model
+    scenario.plant.discrete_contact_approximation = drake_approximation(contact.approximation, contact.model)
 
 
 def shipped_scenes() -> dict[str, Path]:

@@ -145,6 +145,11 @@ def test_near_distances_agree_with_drake_on_a_resting_stack():
     mine = ce.near_distances(q)
     drake = {frozenset((r.id_A, r.id_B)): r.distance for r in q.ComputeSignedDistancePairwiseClosestPoints(ce.NEAR_DISTANCE)}
     assert set(mine) == set(drake) and len(mine) == 2
+    # Penetrating pairs are judged against Drake's point-pair depth: its signed-distance query
+    # is inexact under penetration (measured at t = 0.05 s on the E = 1e9 Pa stack: -2.42e-5 m
+    # where the point-pair depth and ours agree on -3.1078e-5 m to 1e-15 m).
+    depth = {frozenset((r.id_A, r.id_B)): -r.depth for r in q.ComputePointPairPenetration()}
     for key in mine:
-        assert mine[key] == pytest.approx(drake[key], abs=1e-6)
+        reference = depth[key] if key in depth else drake[key]
+        assert mine[key] == pytest.approx(reference, abs=1e-6)
 

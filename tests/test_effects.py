@@ -112,7 +112,11 @@ def test_learned_contact_reads_the_logger_through_its_public_api():
     from testbed.effects.learned_contact import MIN_PENETRATION
     from testbed.simulation import run_scenario
 
-    result = run_scenario(load_scenario("two_stack", overrides=["effects.learned_contact={}"]), duration=0.05)
+    # a centred payload: two_stack's 0.8 m payload offset moves Drake's centre of pressure where a
+    # pose-only predictor cannot see it (a pinned known limit of the scene gates); measured with it
+    # 0.22 m at E = 1e9 Pa, without it 0.028 m
+    centred = ["effects.learned_contact={}", "containers[1].com_offset=[0.0, 0.0, 0.0]"]
+    result = run_scenario(load_scenario("two_stack", overrides=centred), duration=0.05)
     contacts, learned = result.tables["contacts"], result.tables["learned"]
     pair = (contacts["a"] == 1) & (contacts["b"] == 2) & (contacts["phi"] < -MIN_PENETRATION)
     assert np.array_equal(np.unique(learned["step"]), np.unique(contacts["step"][pair]))  # every step
@@ -121,7 +125,7 @@ def test_learned_contact_reads_the_logger_through_its_public_api():
     assert fresh.sum() >= 4 and (~fresh).sum() >= 4  # 50 steps, static columns read every 10
     errors = learned["point_error"]
     assert np.all(np.isfinite(errors) == fresh) and np.all(np.isfinite(learned["normal_error_deg"]) == fresh)
-    # the shipped predictor on a resting 20 ft pair: within the stacking gate's p95 (0.15 m)
+    # the shipped predictor on a resting, centrally loaded 20 ft pair: within the stacking gate's p95 (0.15 m)
     assert np.nanmax(errors) < 0.15
     np.testing.assert_allclose(np.linalg.norm(learned["n_W_pred"], axis=1), 1.0, atol=1e-9)
     assert result.summary["learned_rows"] == len(learned["a"])

@@ -184,7 +184,7 @@ def test_in_scene_learned_gate_can_fail_and_pins_the_known_limit():
 
     assert gate("five_stack", "hydroelastic", 0.013) is True
     assert gate("five_stack", "hydroelastic", 0.05) is False
-    assert gate("two_stack", "hydroelastic", 0.147) is True
-    assert gate("two_stack", "hydroelastic", 0.25) is False
+    assert gate("two_stack", "hydroelastic", 0.224) is True
+    assert gate("two_stack", "hydroelastic", 0.30) is False
     assert gate("two_stack", "hydroelastic", 0.02) is False  # stale pin
     assert gate("five_stack", "point", 0.5) is None

@@ -6,7 +6,11 @@ import json
 from pathlib import Path
 
 from testbed.commands import timestamp
+from testbed.errors import TestbedError
 from testbed.records import write_atomic
+
+# The shared data folder beside the repository's checkout (the project's layout; see README.md)
+DEFAULT_TOSS_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "cube_tosses" / "even.npz"
 
 NAME = "study"
 HELP = "one study on its own: sim (time step x model x approximation), query, stability or defaults (contact settings judged over hard cases)"
@@ -19,6 +23,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.add_argument("--workers", type=int, default=2, help="processes of the defaults sweep (default 2)")
+    sweep = parser.add_argument_group("defaults sweep axes (comma-separated; default: the full grid)")
+    sweep.add_argument("--moduli", help="hydroelastic moduli [Pa], e.g. 1e8,1e9")
+    sweep.add_argument("--approximations", help="discrete approximations, e.g. sap,similar")
+    sweep.add_argument("--margins", help="hydroelastic margins [m], e.g. 0,1e-4")
+    sweep.add_argument("--time-steps", help="plant time steps [s], e.g. 1e-3")
+    sweep.add_argument("--stiction-tolerances", help="plant stiction tolerances [m/s] (not SAP's), e.g. 1e-4,1e-6")
+    sweep.add_argument("--cases", help="cases to run (default all: stress cases, shipped scenes, cube_tosses)")
+    sweep.add_argument("--toss-data", default=str(DEFAULT_TOSS_DATA),
+                       help="real cube tosses for the toss criterion (default ../shared/data/cube_tosses/even.npz "
+                            "beside the checkout; absent: the criterion reads n/a)")
 
 
 def run(args) -> int:
@@ -74,16 +88,53 @@ def _defaults(args, out: Path) -> None:
     import time
 
     from testbed.document import to_html, to_markdown
-    from testbed.studies.defaults import CASE_NAMES, grid, report_sections, summarize, sweep
+    from testbed.effects.contact import APPROXIMATIONS as CONTACT_APPROXIMATIONS
+    from testbed.studies import defaults as d
 
+    axes = {"moduli": _floats(args.moduli, "--moduli", d.MODULI),
+            "approximations": _choices(args.approximations, "--approximations", CONTACT_APPROXIMATIONS, d.APPROXIMATIONS),
+            "margins": _floats(args.margins, "--margins", d.MARGINS, minimum=0.0),
+            "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
+            "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}
+    cases = _choices(args.cases, "--cases", d.CASE_NAMES, ("near_parallel",) if args.quick else d.CASE_NAMES)
+    toss_data = Path(args.toss_data) if args.toss_data and Path(args.toss_data).is_file() else None
+    if args.toss_data and toss_data is None and args.toss_data != str(DEFAULT_TOSS_DATA):
+        raise TestbedError(f"--toss-data: no such file {args.toss_data!r}; expected a cube-toss .npz (testbed calibrate's format)")
+    if toss_data is None and d.TOSS_CASE in cases:
+        print(f"note: no cube-toss data at {args.toss_data}: the toss criterion reads n/a")
     start, partial = time.perf_counter(), out / "defaults_rows.jsonl"
     partial.write_text("")
     with partial.open("a") as f:  # each (setting, case) row as it arrives: a cut-short sweep keeps its rows
-        rows = sweep(grid(args.quick), ("near_parallel",) if args.quick else CASE_NAMES, workers=args.workers,
-            duration=0.3 if args.quick else None, on_row=lambda r: (f.write(json.dumps(r, default=float) + "\n"), f.flush()))
-    summary = summarize(rows)
+        rows = d.sweep(d.grid(args.quick, **axes), cases, workers=args.workers, toss_data=toss_data,
+                       duration=0.3 if args.quick else None,
+                       on_row=lambda r: (f.write(json.dumps(r, default=float) + "\n"), f.flush()))
+    summary = d.summarize(rows)
     write_atomic(out / "defaults.json", json.dumps({"rows": rows, "summary": summary}, indent=1, default=float))
-    sections = report_sections(summary, time.perf_counter() - start)
+    sections = d.report_sections(summary, time.perf_counter() - start)
     write_atomic(out / "defaults.md", to_markdown("Contact defaults sweep", sections))
     write_atomic(out / "defaults.html", to_html("Contact defaults sweep", sections))
     print((out / "defaults.md").read_text())
+
+
+def _floats(text, option: str, default, minimum: float | None = None) -> tuple[float, ...]:
+    """A comma-separated list of numbers (positive, or >= minimum when given)."""
+    if not text:
+        return tuple(default)
+    try:
+        values = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise TestbedError(f"{option}: expected comma-separated numbers, got {text!r}") from None
+    bad = [v for v in values if not (v >= minimum if minimum is not None else v > 0)]
+    if bad:
+        raise TestbedError(f"{option}: expected {'non-negative' if minimum is not None else 'positive'} numbers, got {bad}")
+    return values
+
+
+def _choices(text, option: str, allowed, default) -> tuple[str, ...]:
+    if not text:
+        return tuple(default)
+    values = tuple(x.strip() for x in text.split(","))
+    unknown = [v for v in values if v not in allowed]
+    if unknown:
+        raise TestbedError(f"{option}: unknown {unknown}; expected some of: {', '.join(allowed)}")
+    return values

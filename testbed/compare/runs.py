@@ -25,10 +25,17 @@ RECORDERS = ("contact_log", "shadow_contact", "learned_contact", "meshcat")
 def variant(scenario, kind: str, predictor: str | None = None):
     """A copy of `scenario` for kind 'truth' (the scene's own contact model), 'point'
     (Drake point contact) or 'learned' (learned_dynamics with `predictor`; None: the
-    scene's own learned_dynamics config if it declares one, else "improved")."""
+    scene's own learned_dynamics config if it declares one, else "improved"). Every kind
+    runs the containers at the learned law's modulus (law_modulus: 1e8 Pa unless the scene
+    sets one), not the SDF's 1e9 Pa."""
     from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+    from testbed.learned_force_law import law_modulus
 
     out = copy.deepcopy(scenario)
+    if out.effects.contact is not None and out.effects.contact.hydroelastic_modulus is None:
+        # every twin at the learned law's modulus (learned_force_law.KAPPA_MODULUS: its fit, and
+        # the stiffest its explicit step takes at 1 ms), not the SDF's: like is compared with like
+        out.effects.contact = dataclasses.replace(out.effects.contact, hydroelastic_modulus=law_modulus(out))
     for name in RECORDERS + ("learned_dynamics",):
         if hasattr(out.effects, name):
             setattr(out.effects, name, None)

@@ -28,7 +28,7 @@ class ModelPlan:
     collision: bool = False  # keep collision geometry (the `contact` effect)
     friction: bool = False  # keep friction; False makes every coefficient 0
     contact_model: str = "hydroelastic_with_fallback"
-    discrete_contact_approximation: str = "sap"
+    discrete_contact_approximation: str = "similar"
     # drake:proximity_properties values replacing the SDF's on every geometry
     proximity_overrides: dict = dataclasses.field(default_factory=dict)
 

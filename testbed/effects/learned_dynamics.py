@@ -16,9 +16,15 @@ Force law, per pair (A = lower body index, B = higher; n points from A into B):
   and by a GRID-point midpoint rule across it (testbed/learned_force_law.py). kappa
   [Pa/m] is fitted to Drake's static hydroelastic force-vs-depth curve of each size
   pair (testbed.pair_plant.ContainerPair, aligned centred faces, overlap 0.05 to 5 mm;
-  `fit_pressure_stiffness`): 4.1017e7 Pa/m for every pair of 1CC/1AA/1AAA, linear
-  within 0.05 % over that range, i.e. E / (2 x 1.219 m) (two compliant boxes, each a
-  medial-axis field of depth half the 2.438 m width). Against Drake's static force
+  `fit_pressure_stiffness`) at E = 1e8 Pa: 4.1017e7 Pa/m for every pair of 1CC/1AA/1AAA,
+  linear within 0.05 % over that range, i.e. E / (2 x 1.219 m) (two compliant boxes, each
+  a medial-axis field of depth half the 2.438 m width). The truth's containers are 1e9 Pa
+  since issue 12: a law that stiff is unstable in this explicit step at 1 ms on the light
+  and hard-landing scenes (testbed/learned_force_law.py KAPPA_MODULUS says what was
+  measured). So a scene with this effect runs its containers at the law's modulus
+  (KAPPA_MODULUS, 1e8 Pa: the effect's plan sets it on every geometry unless the scene
+  sets effects.contact.hydroelastic_modulus, which the law then follows, stability
+  check included), and twin runs (testbed.compare) run the truth at the same modulus. Against Drake's static force
   the law is within 1.4 % for pitch/roll up to 3e-2 rad and offset faces (tests).
   Why not k * (separating-axis depth): the SAT depth is the DEEPEST point, so a
   1e-4 rad tilt of a 10 t box on a 20 ft box made k * d_SAT 2.80e5 N where Drake gives
@@ -73,7 +79,7 @@ from pydrake.systems.framework import LeafSystem
 from testbed.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect
-from testbed.learned_force_law import FITTED_KAPPA, stability_numbers
+from testbed.learned_force_law import law_modulus, pressure_stiffness, stability_numbers
 from testbed.records import TableBuilder
 
 MU_SDF = 0.4  # the models' mu_dynamic (sdf/README.md), what Drake's discrete solvers use
@@ -114,7 +120,8 @@ def load_named_predictor(name: str):
 class LearnedDynamics(LeafSystem):
     """Contact wrenches between container pairs from a predictor (see the module docstring)."""
 
-    def __init__(self, assembly, config: LearnedDynamicsConfig, predictor, kappa: np.ndarray, mu: float, pairs):
+    def __init__(self, assembly, config: LearnedDynamicsConfig, predictor, kappa: np.ndarray, mu: float, pairs,
+                 modulus: float):
         super().__init__()
         self.set_name("learned_dynamics")
         from testbed import learned_force_kernels  # numba: only scenes that build the effect load it
@@ -140,6 +147,7 @@ class LearnedDynamics(LeafSystem):
         pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) container indices, A < B
         self._ia, self._ib = pairs[:, 0].copy(), pairs[:, 1].copy()
         self._kappa = np.asarray(kappa, dtype=float)  # (P,) [Pa/m]
+        self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
         self._types = [c.type for c in specs]
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
         self.table = TableBuilder()
@@ -251,7 +259,7 @@ class LearnedDynamics(LeafSystem):
         for row, (i, j) in enumerate(last["pairs"]):
             key = (self._types[i], self._types[j])
             if key not in self._shadow_pairs:
-                self._shadow_pairs[key] = ContainerPair(*key)
+                self._shadow_pairs[key] = ContainerPair(*key, modulus=self._modulus)
             query = self._shadow_pairs[key].set_pose(last["p_AB"][row], last["R_AB"][row])
             surfaces = query.ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
             if surfaces:
@@ -302,6 +310,11 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("", "needs a discrete plant (plant.time_step > 0)")
         self._prepare()
 
+    def plan(self, plan) -> None:
+        super().plan(plan)
+        # the containers at the law's modulus unless the scene chose one (the contact effect writes that)
+        plan.proximity_overrides.setdefault("hydroelastic_modulus", law_modulus(self.scenario))
+
     def _prepare(self) -> None:
         """Loads the predictor, lists the pairs, checks the explicit step's stability."""
         from learned_contact.errors import WeightsError
@@ -314,7 +327,8 @@ class LearnedDynamicsEffect(Effect):
         specs = self.scenario.containers
         self.pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))
                       if not (specs[i].fixed and specs[j].fixed)]
-        self.kappa = np.array([c.pressure_stiffness or FITTED_KAPPA[frozenset((specs[i].type, specs[j].type))]
+        self.modulus = law_modulus(self.scenario)
+        self.kappa = np.array([c.pressure_stiffness or pressure_stiffness(specs[i].type, specs[j].type, self.modulus)
                                for i, j in self.pairs])
         self.stability = stability_numbers(self.scenario, self.pairs, self.kappa, c.dissipation)
         for row in self.stability:
@@ -339,7 +353,7 @@ class LearnedDynamicsEffect(Effect):
         friction = self.scenario.effects.friction
         if friction is not None:
             mu = self.config.mu if self.config.mu is not None else (friction.mu if friction.mu is not None else MU_SDF)
-        self.system = LearnedDynamics(assembly, self.config, self.predictor, self.kappa, mu, self.pairs)
+        self.system = LearnedDynamics(assembly, self.config, self.predictor, self.kappa, mu, self.pairs, self.modulus)
         return [self.system]
 
     def collect(self, tables: dict) -> None:

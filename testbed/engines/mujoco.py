@@ -22,61 +22,69 @@ What is translated (Drake side in brackets):
 - the crane: the same ropes, trolley profile and twistlock release as testbed/effects/crane.py,
   as applied forces (mujoco_crane.py); learned_dynamics (and any effect not listed in
   TRANSLATED_EFFECTS or IGNORED_EFFECTS) raises UnsupportedSceneError;
-- not translated: contact.hydroelastic_margin (MuJoCo's contacts start at distance 0),
-  friction's mu_static (Drake's discrete solvers do not use it either).
+- not translated: contact.hydroelastic_margin (it widens Drake's contact detection only: a
+  20 t box rests 16.19 um deep with margin 0, 1e-4 and 1e-3 m alike; MuJoCo's contacts start
+  at distance 0), friction's mu_static (Drake's discrete solvers do not use it either).
 
 Contact parameters (`params`):
 "default": MuJoCo's defaults, solref (0.02, 1), solimp (0.9, 0.95, 0.001, 0.5, 2), impratio 1.
-"matched": per pair, chosen so that MuJoCo's static penetration under load and the damping
-  ratio equal those of Drake's hydroelastic contact in the scene's SDFs. Derivation:
+"matched": per pair, chosen so that MuJoCo's static penetration under load and its one-step
+  map of the contact mode equal those of Drake's discrete hydroelastic contact (the scene's
+  SDFs with effects.contact's modulus override). Derivation:
   Drake. A compliant box's pressure rises from 0 at its surface to E at the medial axis, so
-  an overlap x gives p = E x / D with foundation depth D = half the smallest side
-  (DESIGN.md s.3). Over a footprint overlap A the pair is a spring k = E A / D against the
+  an overlap x gives p = E x / D_f with foundation depth D_f = half the smallest side
+  (DESIGN.md s.3). Over a footprint overlap A the pair is a spring k = E A / D_f against the
   rigid quay and k = E A / (D_a + D_b) between two boxes (equal pressures, depths in
-  series). Dissipation: SAP (every shipped scene) is linear Kelvin-Voigt, c = tau k with
-  tau = tau_a + tau_b (Drake sums the two relaxation_time values); TAMSI/similar/lagged use
-  Hunt-Crossley, f = k x (1 + d xdot), i.e. c = d k x = d W at the static load W.
+  series). Dissipation: SAP is linear Kelvin-Voigt, c = tau k, tau = tau_a + tau_b (Drake
+  sums the relaxation times); TAMSI/similar/lagged (so 'auto' for hydroelastic) use
+  Hunt-Crossley, f = k x (1 + d xdot), i.e. c = d k x = d W at the static load W of the
+  upper body. Drake's discrete solvers are implicit Euler in the contact force (x and v at
+  the step's end), so a mode of mass m steps with determinant 1/D and trace (2 + h c/m)/D,
+  D = 1 + h^2 k/m + h c/m (drake_step_factor; measured on the 20 t box below: AR(2) fits
+  of Drake's settling give det 0.601 at 1e9 Pa/'similar' where 1/D = 0.604, and 1/D to 4
+  digits with SAP). At 1e9 Pa that numerical damping dominates: Hunt-Crossley's own
+  zeta = c/(2 sqrt(k m)) is 0.03 for a 20 t box, the step's det 0.60 (amplitude x0.78 a step).
   MuJoCo. Measured on 4.0.0 (tests check it): with solref = (-S, -B) and a constant
   impedance solimp = (d0, d0, ...), a contact row has R = (1 - d0)/d0 * A_mj with
   A_mj = 1/m_a + 1/m_b (body_invweight0; 0 for the world or a welded body), reference
-  acceleration aref = -(B/d0) v - (S/d0^2) d0 r, and force f = (aref - J a)/R. At rest
-  (J a = 0) that is a spring S/((1 - d0) A_mj) and damper B/((1 - d0) A_mj) per contact,
-  plus an added mass 1/R = d0/((1 - d0) A_mj) per contact (the implicit term).
-  MuJoCo's box-plane and face-on-face box-box collisions return n = 4 contacts, so
-      S = (k / 4) (1 - d0) A_mj  (static penetration W/k, whatever d0),
-      B = (c sqrt(lam) / k) S    (damping ratio c / (2 sqrt(k m)) kept under the added mass),
-  where lam = 1 + 4 d0/(1 - d0) is the contact mode's mass over m_eff (the reduced mass).
-  d0 trades frequency for robustness: d0 -> 0 would also match the natural frequency, but
-  MuJoCo's box-box routine returns 6 or 8 contacts instead of 4 for some steps on aligned,
-  equal footprints (two_stack, bridge), and with d0 = 0.01 each such step kicks the stack
-  (ground force off by 5% at t = 1-2 s, 48% on the top pair); d0 = 0.1 (lam = 1.44, the
-  contact mode 17% slow) absorbs it. Stability: aref is explicit in r and v, so the
-  semi-implicit Euler step needs (h w)^2/lam + 4 zeta h w/sqrt(lam) < 4 (w = sqrt(k/m_eff));
-  d0 is raised per pair until that is <= STABILITY_MARGIN = 1, e.g. the 3.75 t empty 40 ft
-  boxes of windy_stack (w = 806 rad/s, zeta = 0.99): lam = 8.0 at h = 1 ms, 801 at 10 ms.
+  acceleration aref = -(B/d0) v - (S/d0) r and force f = (aref - J a)/R. MuJoCo's box-plane
+  and face-on-face box-box collisions return n = 4 contacts. For the pair's mode that is a
+  semi-implicit Euler step of stiffness k/lam and damping b per unit mass, with an added
+  mass lam = 1 + n d0/(1 - d0): det = 1 - h b, trace = 2 - h b - h^2 k/(m lam). Hence
+      S = (k / n) (1 - d0) A_mj               (static penetration W/k, whatever d0),
+      lam = D, i.e. d0/(1 - d0) = (D - 1)/n   (the trace too),
+      B = (1 - 1/D) (1 - d0) lam / (n h)      (det = 1/D; = d0/h when lam = D),
+  which is row by row Drake's implicit step: R = 1/(h (h k + c)) per unit of the n rows and
+  aref = -v/h - R k r, SAP's regularisation. It is stable at any h (lam >= 1 + (h w)^2).
+  d0 is kept >= MATCHED_IMPEDANCE = 0.1 (lam >= 1.44): MuJoCo's box-box routine returns 6 or
+  8 contacts instead of 4 for some steps on aligned, equal footprints (two_stack, bridge),
+  and with d0 = 0.01 each such step kicked the stack (ground force off by 5% at t = 1-2 s);
+  a floored pair keeps det = 1/D but its mode runs slow by sqrt(lam/D).
   PairParams.mass_factor records lam; the run summary its maximum.
-  Worked numbers (E = 1e8 Pa, tau = 1e-3 + 1e-3 s, d_HC = 5 s/m, from sdf/):
-  a 20 t 1CC on the quay: A = 14.77 m^2, D = 1.219 m, k = 1.21e9 N/m, static penetration
-  W/k = 0.162 mm, w = sqrt(k/m) = 246 rad/s, SAP zeta = tau w / 2 = 0.25;
-  A_mj = 5e-5 1/kg, d0 = 0.1 -> S = 1.36e4 1/s^2, B = 32.8 1/s. A 10 t 1CC on a 20 t one:
-  k = E A/(2 D) = 6.06e8 N/m (0.162 mm under its weight), A_mj = 1.5e-4 -> S = 2.04e4.
-  impratio = 100 (frictional rows 100x stiffer than normal ones): friction rows share B, so
-  below the cone a tangential load F_t creeps at F_t/(impratio c_contact), c_contact =
-  c sqrt(lam)/4; for a 20 t box under a 10% g side load that is 0.07 mm/s (Drake SAP also
-  regularises friction). The areas are the initial footprint overlaps (the smaller
-  footprint for pairs not stacked at t = 0); the matched set always follows Drake's
-  hydroelastic parameters, also in a scene whose own contact model is point contact.
+  Worked numbers (E = 1e9 Pa, d = 5 s/m, 'similar', h = 1 ms): a 20 t 1CC on the quay:
+  A = 14.77 m^2, D_f = 1.219 m, k = 1.21e10 N/m, static penetration W/k = 0.0162 mm,
+  w = sqrt(k/m) = 778 rad/s, c = d W = 9.8e5 N s/m, D = 1 + 0.605 + 0.049 = 1.654:
+  d0 = 0.141, S = 1.30e5 1/s^2, B = 141 1/s. A 10 t 1CC on a 20 t one: k = E A/(2 D_f) =
+  6.06e9 N/m (0.0162 mm under its weight). At the earlier 1e8 Pa with SAP (tau = 2 ms):
+  k = 1.21e9 N/m, 0.162 mm, h w = 0.246, D = 1.18 (floored: d0 = 0.1, mode 11% slow).
+  impratio = 100 (frictional rows' R 1/100 of the normal rows': near-rigid sticking, where
+  SAP also regularises friction); the settling of two_stack (payload 0.8 m off centre) moves
+  its top box 4.6 um sideways in MuJoCo, 17.6 um in Drake (an earlier translation that
+  kept Hunt-Crossley's continuous zeta, without the step's damping, let the stack rock and
+  ratchet it 108 um). The areas are the initial footprint overlaps (the smaller footprint
+  for pairs not stacked at t = 0); the matched set always follows Drake's hydroelastic
+  parameters, also in a scene whose own contact model is point contact.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from testbed.effects.contact import drake_approximation
 from testbed.boxes import BOX_TYPE
 from testbed.errors import OptionalDependencyError, TestbedError, UnknownChoiceError
 from testbed.model_loading import BOX_DEFAULT_PROPERTIES, GROUND_URL, resolve_url, solid_box_inertia
@@ -88,7 +96,6 @@ PARAM_SETS = ("matched", "default")
 CONTACTS_PER_FACE = 4  # MuJoCo's contacts for a face-on-face box pair (measured, tests)
 MATCHED_IMPEDANCE = 0.1  # smallest d0 of the matched set (see the module docstring)
 MATCHED_IMPRATIO = 100.0
-STABILITY_MARGIN = 1.0  # see stable_slowdown
 DEFAULT_SOLREF = (0.02, 1.0)  # MuJoCo's defaults, written out for the record
 DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 TRANSLATED_EFFECTS = ("contact", "friction", "wind", "crane")
@@ -178,6 +185,22 @@ def properties(spec, ground=None) -> dict:
     return proximity(spec.container_type().model_url)
 
 
+CONTACT_OVERRIDES = ("hydroelastic_modulus", "hydroelastic_margin")  # contact effect fields set on every geometry
+
+
+def scene_properties(scenario: Scenario, spec) -> dict:
+    """properties() of a body (spec None = the ground) with the scene's `effects.contact`
+    overrides applied: hydroelastic_modulus [Pa] and hydroelastic_margin [m] replace the
+    SDF's values on every geometry when set, as ContactEffect.plan does for Drake."""
+    values = dict(properties(spec, scenario.ground_surface) if spec is None else properties(spec))
+    contact = scenario.effects.contact
+    for name in CONTACT_OVERRIDES:
+        value = None if contact is None else getattr(contact, name)
+        if value is not None:
+            values[name] = float(value)
+    return values
+
+
 def pair_friction(scenario: Scenario, spec_a, spec_b) -> float:
     """The pair's Coulomb coefficient: 0 without `friction`, friction.mu when set, else Drake's
     combination 2 a b / (a + b) of the two mu_dynamic values (discrete solvers use mu_dynamic)."""
@@ -218,13 +241,13 @@ def _foundation_depth(spec) -> float:
 def matched_pair(scenario: Scenario, spec_a, spec_b, h: float) -> tuple[float, float, tuple, tuple, float]:
     """(k [N/m], c [N s/m], solref, solimp, mass factor) of a pair at time step h [s];
     spec_a None = the rigid quay."""
-    sdf_a, sdf_b = properties(spec_a, scenario.ground_surface), properties(spec_b)
+    sdf_a, sdf_b = scene_properties(scenario, spec_a), scene_properties(scenario, spec_b)
     if spec_a is None:  # the quay is rigid
         k = sdf_b["hydroelastic_modulus"] * spec_b.container_type().footprint_area / _foundation_depth(spec_b)
     else:  # equal pressures: the two foundations in series
         k = overlap_area(spec_a, spec_b) / (_foundation_depth(spec_a) / sdf_a["hydroelastic_modulus"]
                                             + _foundation_depth(spec_b) / sdf_b["hydroelastic_modulus"])
-    approximation = scenario.effects.contact.approximation
+    approximation = drake_approximation(scenario.effects.contact.approximation, scenario.effects.contact.model)
     if approximation == "sap":
         c = (sdf_a["relaxation_time"] + sdf_b["relaxation_time"]) * k
     else:  # Hunt-Crossley at the static load of the upper body (the heavier side's weight is ignored)
@@ -234,25 +257,21 @@ def matched_pair(scenario: Scenario, spec_a, spec_b, h: float) -> tuple[float, f
     masses = [s.total_mass() for s in (spec_a, spec_b) if s is not None and not s.fixed]
     inv_mass = sum(1.0 / m for m in masses)  # A_mj [1/kg]
     m_eff = 1.0 / inv_mass  # [kg] the pair's reduced mass (the body's mass against the quay)
-    slowdown = stable_slowdown(h * math.sqrt(k / m_eff), c / (2.0 * math.sqrt(k * m_eff)))
-    x = (slowdown - 1.0) / CONTACTS_PER_FACE  # d0 / (1 - d0): the added mass n d0/(1 - d0) m_eff = (slowdown - 1) m_eff
-    d0 = max(MATCHED_IMPEDANCE, x / (1.0 + x))
-    S = k / CONTACTS_PER_FACE * (1.0 - d0) * inv_mass
-    mass_factor = 1.0 + CONTACTS_PER_FACE * d0 / (1.0 - d0)
-    B = c * math.sqrt(mass_factor) / k * S  # damping scaled with sqrt(mass) keeps zeta
+    D = drake_step_factor(k, c, m_eff, h)
+    x = max((D - 1.0) / CONTACTS_PER_FACE, MATCHED_IMPEDANCE / (1.0 - MATCHED_IMPEDANCE))  # d0 / (1 - d0)
+    d0 = x / (1.0 + x)
+    mass_factor = 1.0 + CONTACTS_PER_FACE * x  # lam: the pair mode's mass over m_eff (= D unless floored)
+    S = k / CONTACTS_PER_FACE * (1.0 - d0) * inv_mass  # static penetration W/k
+    # per-step decay of the mode, det = 1 - h b_mj, equal to Drake's 1/D; b_mj = n B / ((1 - d0) lam)
+    B = (1.0 - 1.0 / D) * (1.0 - d0) * mass_factor / (CONTACTS_PER_FACE * h)
     return k, c, (-S, -B), (d0, d0, 0.001, 0.5, 2.0), mass_factor
 
 
-def stable_slowdown(h_omega: float, zeta: float) -> float:
-    """Mass factor lam >= 1 so that a spring-damper of h*omega and damping ratio zeta, with
-    its mass scaled by lam and its damping scaled to keep zeta, passes the explicit test
-    (h omega)^2 / lam + 4 zeta h omega / sqrt(lam) <= STABILITY_MARGIN (the limit of the
-    semi-implicit Euler step is 4; the margin covers contacts in series and in parallel)."""
-    a, b = h_omega**2, 4.0 * zeta * h_omega
-    if a + b <= STABILITY_MARGIN:
-        return 1.0
-    s = (-b + math.sqrt(b * b + 4.0 * a * STABILITY_MARGIN)) / (2.0 * a)  # s = 1/sqrt(lam)
-    return 1.0 / (s * s)
+def drake_step_factor(k: float, c: float, m: float, h: float) -> float:
+    """D = 1 + h^2 k/m + h c/m [-]: Drake's discrete contact (SAP and its convex
+    approximations) is implicit Euler for a contact spring k [N/m] and damper c [N s/m] on a
+    mass m [kg] at step h [s], whose one-step map has determinant 1/D and trace (2 + h c/m)/D."""
+    return 1.0 + h * h * k / m + h * c / m
 
 
 def contact_pairs(scenario: Scenario, params: str, h: float) -> list[PairParams]:

@@ -56,14 +56,30 @@ def trajectory_of(run: MujocoRun, every: int):
                       error="MuJoCo reported an unstable state" if s["diverged"] else "", names=tuple(run.free_names))
 
 
+def engine_variant(scenario, kind: str):
+    """testbed.compare.runs.variant (kind 'truth' or 'point') at the scene's own contact
+    parameters: variant() runs the learned twins at the learned law's modulus (1e8 Pa),
+    but an engine is judged against the shipped ground truth (the SDF's modulus, or the
+    scene's effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
+    import dataclasses
+
+    from testbed.compare.runs import variant
+
+    out = variant(scenario, kind)
+    if out.effects.contact is not None and scenario.effects.contact is not None:
+        out.effects.contact = dataclasses.replace(
+            out.effects.contact, hydroelastic_modulus=scenario.effects.contact.hydroelastic_modulus)
+    return out
+
+
 def drake_truth(scenario, duration: float, every: int, source="<scenario>"):
     """(Trajectory, contacts table) of Drake's run of the scene's own contact model, with
     contact_log every `every` steps (its wall time includes that logging)."""
     from testbed.builder import build_scene
-    from testbed.compare.runs import run_variant, variant
+    from testbed.compare.runs import run_variant
     from testbed.effects.contact_log import ContactLogConfig
 
-    logged = variant(scenario, "truth")
+    logged = engine_variant(scenario, "truth")
     logged.effects.contact_log = ContactLogConfig(every_steps=every)
     scene = build_scene(logged, source)
     traj = run_variant(None, duration, every, scene=scene)
@@ -126,7 +142,7 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     Drake point contact as well. Raises UnsupportedSceneError before anything runs.
     """
     from testbed.compare.metrics import compare_figures
-    from testbed.compare.runs import run_variant, variant
+    from testbed.compare.runs import run_variant
     from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
     if isinstance(scene, Scenario):
@@ -147,10 +163,10 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     runs = {"truth": truth, "learned": mujoco}
     walls = {"truth": truth.wall_s / max(truth.simulated_s, 1e-12)}
     if bare_truth:
-        bare = run_variant(variant(scenario, "truth"), duration, every, source)
+        bare = run_variant(engine_variant(scenario, "truth"), duration, every, source)
         walls["truth"] = bare.wall_s / max(bare.simulated_s, 1e-12)
     if with_point:
-        runs["point"] = run_variant(variant(scenario, "point"), duration, every, source)
+        runs["point"] = run_variant(engine_variant(scenario, "point"), duration, every, source)
         walls["point"] = runs["point"].wall_s / max(runs["point"].simulated_s, 1e-12)
     figures = {"scene": scenario.name, "engine": "mujoco", "predictor": f"mujoco-{params}", "params": params,
                "mujoco_version": mj_run.summary["mujoco_version"], "duration_s": duration, "time_step_s": h,
@@ -203,7 +219,7 @@ def engine_table_row(scene, *, params=("matched", "default"), duration: float | 
     speed-ups against Drake's bare hydroelastic and point runs. For the validate section
     "the engine users would pick instead". Raises UnsupportedSceneError (crane scenes)."""
     from testbed.compare.metrics import compare_figures
-    from testbed.compare.runs import run_variant, variant
+    from testbed.compare.runs import run_variant
     from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
     scenario = scene if isinstance(scene, Scenario) else load_scenario(resolve_scene_path(scene))
@@ -213,7 +229,7 @@ def engine_table_row(scene, *, params=("matched", "default"), duration: float | 
     truth, drake_contacts = drake_truth(scenario, duration, every)
     walls = {}
     for kind, label in (("truth", "hydroelastic"), ("point", "point")):
-        bare = run_variant(variant(scenario, kind), duration, every)
+        bare = run_variant(engine_variant(scenario, kind), duration, every)
         walls[label] = bare.wall_s / max(bare.simulated_s, 1e-12)
     row = {"scene": scenario.name, "duration_s": duration, "time_step_s": scenario.plant.time_step,
            **{f"wall_per_sim_s_{k}": v for k, v in walls.items()}, "mujoco": {}}

@@ -22,6 +22,7 @@ import time
 
 import numpy as np
 
+from testbed.effects.contact import drake_approximation
 from testbed.builder import build_scene
 from testbed.contact_extraction import near_distances
 from testbed.effects import registry
@@ -43,7 +44,7 @@ def configure(scenario: Scenario, *, model: str, approximation: str, time_step: 
     s.effects.contact.model = model
     s.effects.contact.approximation = approximation
     s.plant.contact_model = model
-    s.plant.discrete_contact_approximation = approximation
+    s.plant.discrete_contact_approximation = drake_approximation(approximation, model)
     return s
 
 

@@ -5,7 +5,7 @@
 
 On the same poses of a container pair (A, B), every method is asked for one contact
 point and one normal, timed side by side in this process, and compared with the
-reference: Drake's static hydroelastic answer (compliant-compliant, E = 1e8 Pa), its
+reference: Drake's static hydroelastic answer (compliant-compliant, E as shipped: 1e9 Pa), its
 centre of pressure (CoP) and pressure-weighted normal (learned_contact/labels.py).
 
   poses.py      the pose sets (stacking, general, near_parallel) and their labels

@@ -83,7 +83,7 @@ def run_query_study(out_dir, *, n_poses: int | None = None, seed: int = 0, quick
                    "types": list(TYPES), "tilt_range_rad": list(TILT_RANGE), "near_parallel_depth_m": list(NEAR_DEPTH),
                    "sampling_seed": 10 * seed + STUDY_SEED_OFFSET},
         "environment": _environment(),
-        "reference": "Drake hydroelastic compliant-compliant (E = 1e8 Pa): centre of pressure and pressure-weighted "
+        "reference": "Drake hydroelastic compliant-compliant (E = 1e9 Pa, as shipped): centre of pressure and pressure-weighted "
                      "normal (learned_contact.labels)",
         "pose_sets": {k: {"n": len(v), "n_dropped": v.n_dropped} for k, v in sets.items()},
         "methods": {},

@@ -3,9 +3,12 @@
 One case per scene (testbed.engines.mujoco_compare.engine_table_row): Drake's run of the
 scene's own contact model (the ground truth, with its contact log), Drake's bare
 hydroelastic and point-contact runs (for their speed), and MuJoCo with both contact
-parameter sets ('matched' to Drake's hydroelastic stiffness and dissipation, and MuJoCo's
-'default'), all in one process. A missing MuJoCo, or a scene it cannot translate, makes
-the case unavailable (a result saying why), not an error. Reported, not gated.
+parameter sets ('matched' to Drake's hydroelastic stiffness and its discrete step's
+dissipation, and MuJoCo's 'default'), all in one process. Drake runs the scene's own
+contact parameters (the shipped 1e9 Pa unless the scene overrides them), not the learned
+twins' 1e8 Pa (testbed.engines.mujoco_compare.engine_variant). A missing MuJoCo, or a
+scene it cannot translate, makes the case unavailable (a result saying why), not an error.
+Reported, not gated.
 
 Section "The engine users would pick instead": the table per scene and parameter set.
 Its speed-accuracy chart comes from the simulation study's MuJoCo curves: the
@@ -97,7 +100,8 @@ class EngineCase(CaseKind):
         results = [r["result"] for r in records]
         ran = [s for s in results if s.get("available")]
         blocks = [Text("Each scene simulated by MuJoCo as a whole-simulator alternative, with contact parameters "
-                       "'matched' to Drake's hydroelastic stiffness and dissipation and with MuJoCo's 'default' ones, "
+                       "'matched' to Drake's hydroelastic stiffness and its discrete step's dissipation and with "
+                       "MuJoCo's 'default' ones, "
                        "against Drake's run of the scene's own contact model (the ground truth). Speed = Drake's wall "
                        "time per simulated second / MuJoCo's, measured side by side in one process. Contact point: "
                        "MuJoCo's contacts per body pair reduced to the force-weighted centroid, against Drake's centre "

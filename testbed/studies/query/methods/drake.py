@@ -9,7 +9,7 @@ Modes
 - "point": QueryObject.ComputePointPairPenetration; box-box goes to FCL's port of ODE's
   dBoxBox, which keeps the deepest of up to 4 points. Point = midpoint of the witness
   points p_WCa, p_WCb; normal = -nhat_BA_W when Drake's A is our A.
-- "hydro_cc": both boxes compliant_hydroelastic (the SDF models as shipped: E = 1e8 Pa);
+- "hydro_cc": both boxes compliant_hydroelastic (the SDF models as shipped: E = 1e9 Pa);
   QueryObject.ComputeContactSurfaces(kPolygon) and the centre of pressure and
   pressure-weighted normal of testbed.contact_geometry.static_pressure. This is the
   study's reference model.
