@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from testbed.commands import timestamp
+from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.errors import TestbedError
+from testbed.learned_force_law import law_modulus
 
 NAME = "compare"
 HELP = "run a scene with Drake's contact and with the learned model in the loop; write compare.json"
@@ -48,6 +50,8 @@ def run(args) -> int:
     figures = compare_scene(path, predictor=args.predictor, out_dir=out, duration=args.duration,
                             replay=not args.no_replay)
     print(format_figures(figures))
+    print(f"  containers at {law_modulus(scenario):.0e} Pa in every run (the learned law's modulus; shipped SDF: "
+          f"{HYDROELASTIC_MODULUS:.0e} Pa, sdf/README.md says why they differ)")
     print(f"  output: {out}")
     return 0
 
