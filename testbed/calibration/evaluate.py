@@ -33,10 +33,10 @@ def _init_worker(path: str) -> None:
 
 
 def _run_chunk(args) -> list[TossResult]:
-    params, indices = args
+    params, indices, initial = args
     data: TossSet = _worker_state["data"]
     sim = _simulator(params, data.dt)
-    return [sim.evaluate(data.tosses[i]) for i in indices]
+    return [sim.evaluate(data.tosses[i], initial) for i in indices]
 
 
 class RolloutPool:
@@ -62,17 +62,18 @@ class RolloutPool:
             self._pool.join()
             self._pool = None
 
-    def evaluate(self, params: CubeTossParams, indices=None) -> list[TossResult]:
-        """One TossResult per toss index (all tosses when None), in the order given."""
+    def evaluate(self, params: CubeTossParams, indices=None, initial: str = "first-frame") -> list[TossResult]:
+        """One TossResult per toss index (all tosses when None), in the order given;
+        `initial`: the rollouts' initial state (initial_state.INITIAL_STATES)."""
         params.check()
         indices = list(range(len(self.data.tosses))) if indices is None else list(indices)
         if self._pool is None:
             sim = TossSimulator(params, self.data.dt)
-            return [sim.evaluate(self.data.tosses[i]) for i in indices]
+            return [sim.evaluate(self.data.tosses[i], initial) for i in indices]
         n_chunks = min(len(indices), 4 * self.workers)  # a few chunks per worker balance long and short tosses
         chunks = [indices[c::n_chunks] for c in range(n_chunks)]
         by_index = {}
-        for chunk, results in zip(chunks, self._pool.map(_run_chunk, [(params, c) for c in chunks])):
+        for chunk, results in zip(chunks, self._pool.map(_run_chunk, [(params, c, initial) for c in chunks])):
             by_index.update(zip(chunk, results))
         return [by_index[i] for i in indices]
 
@@ -91,10 +92,10 @@ def summarize(results: list[TossResult], wall_s: float) -> dict:
     }
 
 
-def evaluate_file(params: CubeTossParams, path: str, workers: int = 1) -> tuple[list[TossResult], dict]:
-    """Rolls out every toss of `path` with `params`: (results, metrics dict)."""
+def evaluate_file(params: CubeTossParams, path: str, workers: int = 1, initial: str = "first-frame") -> tuple[list[TossResult], dict]:
+    """Rolls out every toss of `path` with `params` from `initial` states: (results, metrics dict)."""
     start = time.perf_counter()
     data = load_tosses(path)
     with RolloutPool(data, workers) as pool:
-        results = pool.evaluate(params)
+        results = pool.evaluate(params, initial=initial)
     return results, summarize(results, time.perf_counter() - start)

@@ -28,7 +28,7 @@ def to_fragment(params: CubeTossParams, comment: str = "") -> str:
         "name": "cube_toss",
         "description": "0.1048 m cube on a table; contact values fitted to real tosses (testbed calibrate)",
         "duration": 1.0,
-        "plant": {"time_step": float(params.time_step)},
+        "plant": {"time_step": float(params.time_step), "stiction_tolerance": float(params.stiction_tolerance)},
         "ground_surface": {"shape": "slab", "height": float(params.table_height), "size": list(TABLE_SIZE),
                            "contact": {k: float(contact[k]) for k in _GROUND_KEYS}},
         "containers": [{
@@ -74,7 +74,7 @@ def from_fragment(path: str | Path) -> CubeTossParams:
     defaults = CubeTossParams()
     params = CubeTossParams(
         model=scenario.effects.contact.model, approximation=scenario.effects.contact.approximation,
-        time_step=scenario.plant.time_step, mu=contact["mu_dynamic"],
+        time_step=scenario.plant.time_step, stiction_tolerance=scenario.plant.stiction_tolerance, mu=contact["mu_dynamic"],
         point_contact_stiffness=contact["point_contact_stiffness"],
         hydroelastic_modulus=contact.get("hydroelastic_modulus", defaults.hydroelastic_modulus),
         relaxation_time=contact["relaxation_time"], hunt_crossley_dissipation=contact["hunt_crossley_dissipation"],

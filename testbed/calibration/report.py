@@ -50,9 +50,10 @@ def plot_errors(out: Path, results: list[TossResult], split: dict[int, str] | No
     return path
 
 
-def plot_trajectories(out: Path, data: TossSet, results: list[TossResult], sim: TossSimulator, count: int = 4) -> Path:
+def plot_trajectories(out: Path, data: TossSet, results: list[TossResult], sim: TossSimulator, count: int = 4,
+                      initial: str = "first-frame") -> Path:
     """trajectories.png: data vs simulation (x, y, z of the centre) for tosses at the
-    error quantiles 0, 1/3, 2/3 and 1 (best to worst)."""
+    error quantiles 0, 1/3, 2/3 and 1 (best to worst), rolled out from `initial` states."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -65,7 +66,7 @@ def plot_trajectories(out: Path, data: TossSet, results: list[TossResult], sim: 
     for ax, r in zip(axes[0], picks):
         toss = by_id[r.toss_id]
         try:
-            p, _ = sim.rollout(toss)
+            p, _ = sim.rollout(toss, initial)
         except RuntimeError:
             continue
         for j, (name, colour) in enumerate((("x", "tab:red"), ("y", "tab:green"), ("z", "tab:blue"))):

@@ -12,8 +12,7 @@ import dataclasses
 import math
 
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RigidTransform, RotationMatrix
+from pydrake.math import RigidTransform
 from pydrake.multibody.math import SpatialVelocity
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
@@ -22,6 +21,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from testbed import model_loading
 from testbed.calibration.data import CUBE_INERTIA, CUBE_MASS, CUBE_WIDTH, TABLE_HEIGHT, Toss
+from testbed.calibration.initial_state import first_frame, initial_state
 from testbed.errors import TestbedError
 
 MODELS = ("point", "hydroelastic")
@@ -50,13 +50,16 @@ class CubeTossParams:
     # [m] point contact only: > 0 replaces the box's collision geometry by 8 spheres of this
     # radius inside its corners (a cube with rounded corners); 0 = the box
     corner_spheres: float = 0.0
+    # [m/s] MultibodyPlantConfig.stiction_tolerance: the slip speed below which TAMSI's
+    # regularised friction counts as sticking (ignored by SAP, similar, lagged)
+    stiction_tolerance: float = 1.0e-4
 
     def check(self) -> None:
         if self.model not in MODELS:
             raise TestbedError(f"model: unknown {self.model!r}; expected one of: {', '.join(MODELS)}")
         if self.approximation not in APPROXIMATIONS:
             raise TestbedError(f"approximation: unknown {self.approximation!r}; expected one of: {', '.join(APPROXIMATIONS)}")
-        for name in ("time_step", "mu", "point_contact_stiffness", "hydroelastic_modulus"):
+        for name in ("time_step", "mu", "point_contact_stiffness", "hydroelastic_modulus", "stiction_tolerance"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise TestbedError(f"{name}: expected a positive number, got {value}")
@@ -88,8 +91,8 @@ class TossResult:
 def initial_velocity(toss: Toss) -> tuple[np.ndarray, np.ndarray]:
     """(w_WB_W, v_WB_W) at the first frame, both (3,) in W: the stored angular velocity is
     expressed in the body frame B and is rotated by R_WB; Drake takes it in W."""
-    R_WB = RotationMatrix(Quaternion(toss.q_WB[0])).matrix()
-    return R_WB @ toss.w_WB_B[0], toss.v_WB[0].copy()
+    _, _, w_W, v_W = first_frame(toss)
+    return w_W, v_W
 
 
 def rotation_angle_deg(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
@@ -108,7 +111,8 @@ class TossSimulator:
         self.time_step = frame_dt / substeps  # frames land on steps
         builder = DiagramBuilder()
         config = MultibodyPlantConfig(time_step=self.time_step, contact_model=params.model,
-                                      discrete_contact_approximation=params.approximation)
+                                      discrete_contact_approximation=params.approximation,
+                                      stiction_tolerance=params.stiction_tolerance)
         plant, _ = AddMultibodyPlant(config, builder)
         parser = Parser(plant)
         parser.SetStrictParsing()
@@ -126,13 +130,13 @@ class TossSimulator:
         self.context = self.simulator.get_mutable_context()
         self.plant_context = plant.GetMyMutableContextFromRoot(self.context)
 
-    def rollout(self, toss: Toss) -> tuple[np.ndarray, np.ndarray]:
-        """(p_WB (n, 3) [m], q_WB (n, 4) w,x,y,z) simulated at the toss's frame times from its first frame.
-        Raises RuntimeError if Drake's solver fails."""
+    def rollout(self, toss: Toss, initial: str = "first-frame") -> tuple[np.ndarray, np.ndarray]:
+        """(p_WB (n, 3) [m], q_WB (n, 4) w,x,y,z) simulated at the toss's frame times from the
+        state at t = 0 that `initial` names (initial_state.INITIAL_STATES; the published
+        protocol is "first-frame"). Raises RuntimeError if Drake's solver fails."""
         self.context.SetTime(0.0)
-        X_WB = RigidTransform(Quaternion(toss.q_WB[0]), toss.p_WB[0])
-        self.plant.SetFreeBodyPose(self.plant_context, self.body, X_WB)
-        w, v = initial_velocity(toss)
+        R_WB, p_WB, w, v = initial_state(toss, initial, self.params.table_height)
+        self.plant.SetFreeBodyPose(self.plant_context, self.body, RigidTransform(R_WB, p_WB))
         self.plant.SetFreeBodySpatialVelocity(self.plant_context, self.body, SpatialVelocity(w=w, v=v))
         self.simulator.Initialize()
         p = np.empty((len(toss), 3))
@@ -145,9 +149,9 @@ class TossSimulator:
             q[k] = X.rotation().ToQuaternion().wxyz()
         return p, q
 
-    def evaluate(self, toss: Toss) -> TossResult:
+    def evaluate(self, toss: Toss, initial: str = "first-frame") -> TossResult:
         try:
-            p, q = self.rollout(toss)
+            p, q = self.rollout(toss, initial)
         except RuntimeError:
             return TossResult(toss.toss_id, FAILED_TOSS_ERROR, float("nan"), True)
         position = float(np.mean(np.linalg.norm(p - toss.p_WB, axis=1)) / CUBE_WIDTH)

@@ -133,6 +133,7 @@ def toss_params(setting: Setting):
     params = from_fragment(files("testbed.calibration") / "cube_toss_hydroelastic.yaml")
     params.hydroelastic_modulus, params.approximation = setting.modulus, setting.approximation
     params.hydroelastic_margin, params.time_step = setting.margin, setting.time_step
+    params.stiction_tolerance = setting.stiction_tolerance
     return params
 
 
