@@ -270,9 +270,9 @@ def summarize(rows) -> list[dict]:
 
 def learned_loop_stability(setting: Setting) -> dict:
     """Worst explicit-step number of the learned closed loop over the shipped scenes that have
-    a container pair, with the learned law's stiffness scaled to the setting's modulus, each scene
-    at the setting's time step or its own when finer (a scene may ask for a finer step, as
-    windy_stack does): {'worst': (h w)^2 + 2 h c / m, 'scene': where}."""
+    a container pair, with the learned law's stiffness scaled to the setting's modulus and each
+    scene at the setting's time step (as the sweep runs its cases): {'worst': (h w)^2 + 2 h c / m,
+    'scene': where}."""
     from testbed.containers import CONTAINER_TYPES
     from testbed.effects.learned_dynamics import LearnedDynamicsConfig
     from testbed.learned_force_law import pressure_stiffness, stability_numbers
@@ -282,7 +282,7 @@ def learned_loop_stability(setting: Setting) -> dict:
     dissipation = LearnedDynamicsConfig().dissipation
     for name in sorted(shipped_scenes()):
         s = load_scenario(name)
-        s.plant.time_step = min(setting.time_step, s.plant.time_step)
+        s.plant.time_step = setting.time_step
         specs = s.containers
         pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs)) if not (specs[i].fixed and specs[j].fixed)]
         kappa = [pressure_stiffness(specs[i].type, specs[j].type, setting.modulus) for i, j in pairs if specs[i].type in CONTAINER_TYPES and specs[j].type in CONTAINER_TYPES]
