@@ -21,3 +21,9 @@ class DatasetError(TestbedError, ValueError):
 
 class WeightsError(TestbedError):
     """A weights file that is missing, unreadable or of an unknown format version."""
+
+
+class PredictorOutputError(TestbedError, ValueError):
+    """A model's answers the bench cannot use: wrong shapes, NaN or infinite values, or
+    normals further than learned_contact.external.NORMAL_LENGTH_TOLERANCE from unit
+    length (the message names the model and counts the poses)."""

@@ -149,7 +149,7 @@ def verdicts(figures: dict, n: int, seed) -> list[dict]:
 
 def evaluate_gates(seed: int = 0, *, predictor_path=None, n: int = N_HELD_OUT) -> dict:
     """Gates of the predictor at `predictor_path` (default: shipped) on fresh held-out poses."""
-    from learned_contact.loading import load_predictor
+    from learned_contact.sources import load_predictor
 
     data = held_out(seed, n)
     figures = gate_figures(load_predictor(predictor_path), data)

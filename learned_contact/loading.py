@@ -1,8 +1,11 @@
-"""Loading predictors by name or weights file: `load_predictor`.
+"""Loading the shipped predictors' weights files (.npz): `load_weights`.
 
-    load_predictor()                   # "improved": shipped/weights.npz
-    load_predictor("paper")            # shipped/paper_weights.npz
-    load_predictor("my/weights.npz")   # the class named by the file's `kind` field
+    load_weights("improved")           # shipped/weights.npz
+    load_weights("paper")              # shipped/paper_weights.npz
+    load_weights("my/weights.npz")     # the class named by the file's `kind` field
+
+Every other source of a predictor (ONNX, Python objects) and the one function that takes
+them all, `load_predictor`, are in learned_contact.sources.
 
 A weights file is an .npz with: format_version (int, FORMAT_VERSION), kind ("improved"
 or "paper"), supported_sizes (k, 3) full extents [m], meta (JSON string) and the network
@@ -21,12 +24,15 @@ import numpy as np
 from learned_contact.base import FORMAT_VERSION
 from learned_contact.errors import WeightsError
 from learned_contact.mlp import ACTIVATIONS, NumpyMLP
+from learned_contact.files import check_regular_file
 from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
 
 SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}
 # kind -> (input width, output width) of its network
 SHAPES = {"improved": (91, 6), "paper": (6, 4)}
 LEGACY_PAPER_TYPES = ("1CC", "1AA", "1AAA")  # the shipped paper file's training sizes
+# The shipped improved file is ~60 kB; 64 MB admits any MLP of this kind and refuses a runaway file.
+MAX_WEIGHTS_BYTES = 64 * 2**20
 
 
 def _classes() -> dict:
@@ -49,9 +55,10 @@ def _fail(path, field, problem, expected) -> WeightsError:
 
 
 def read_arrays(path: Path) -> dict:
-    if not path.is_file():
+    if not path.exists():
         raise WeightsError(f"weights file {path} not found; give 'improved', 'paper' or the path of an .npz "
                            "(train one with learned_contact.training.train_default)")
+    check_regular_file(path, MAX_WEIGHTS_BYTES, "weights file")
     try:
         with np.load(path, allow_pickle=False) as data:
             return {k: data[k] for k in data.files}
@@ -102,8 +109,8 @@ def _mlp(arrays: dict, path, kind: str) -> NumpyMLP:
     return mlp
 
 
-def load_predictor(name_or_path=None, *, compiled: bool = True):
-    """The predictor named ("improved", the default, or "paper") or stored at a path.
+def load_weights(name_or_path=None, *, compiled: bool = True):
+    """The predictor named ("improved", the default, or "paper") or stored in an .npz.
 
     compiled: run the numba kernels (learned_contact.compiled; cached machine code) or,
     False, the numpy reference path. Raises WeightsError naming the file, the field and

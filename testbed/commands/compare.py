@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from learned_contact import sources
 from testbed.commands import timestamp
 from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.errors import TestbedError
@@ -16,8 +17,8 @@ HELP = "run a scene with Drake's contact and with the learned model in the loop;
 def add_arguments(parser) -> None:
     parser.add_argument("scene", help="a scene YAML file or the name of a shipped scene")
     parser.add_argument("--predictor", default=None,
-                        help="improved, paper, or a weights file (.npz); default: the scene's learned_dynamics "
-                             "predictor if it declares one, else improved")
+                        help=f"{sources.HELP}; default: the scene's learned_dynamics predictor if it declares "
+                             "one, else improved")
     parser.add_argument("--out", help="output directory (default reports/compare/<scene>-<predictor>-<time>)")
     parser.add_argument("--duration", type=float, help="simulated time [s] (default: the scene's)")
     parser.add_argument("--no-replay", action="store_true", help="skip the Meshcat ghost replay (replay.html)")
@@ -45,7 +46,7 @@ def run(args) -> int:
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")
-    label = Path(predictor).stem if predictor not in ("improved", "paper") else predictor
+    label = sources.label(predictor)
     out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
     figures = compare_scene(path, predictor=args.predictor, out_dir=out, duration=args.duration,
                             replay=not args.no_replay)

@@ -47,8 +47,8 @@ BATCH_STEPS = 10
 
 @dataclasses.dataclass
 class LearnedContactConfig:
-    # "improved" (the shipped default), "paper", or the path of a weights file whose
-    # recorded kind picks the predictor (learned_contact.load_predictor)
+    # the predictor: any learned_contact.sources spec ("improved", the shipped default when
+    # None; "paper"; a weights .npz; an ONNX model; module:attribute)
     weights: typing.Optional[str] = None
 
 
@@ -168,9 +168,12 @@ class LearnedContactEffect(Effect):
     requires = ("contact", "contact_log")
 
     def add_systems(self, assembly) -> list:
-        from learned_contact import load_predictor  # compiled (numba) inference; no torch
+        from learned_contact import WeightsError, load_predictor  # compiled (numba) inference; no torch
 
-        predictor = load_predictor(self.config.weights)
+        try:
+            predictor = load_predictor(self.config.weights)
+        except WeightsError as e:
+            raise self.fail("weights", str(e)) from None
         self._check_sizes(predictor)
         logger = assembly.effects["contact_log"].logger
         shadow = assembly.effects.get("shadow_contact")

@@ -88,7 +88,7 @@ NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (pre
 
 @dataclasses.dataclass
 class LearnedDynamicsConfig:
-    predictor: str = "improved"  # "improved" | "paper" | path to a weights file
+    predictor: str = "improved"  # any learned_contact.sources spec: improved | paper | .npz | .onnx | module:attribute
     pressure_stiffness: typing.Optional[float] = None  # [Pa/m] kappa; None = fitted per size pair
     dissipation: float = 5.0  # [s/m] Hunt-Crossley d, the models' hunt_crossley_dissipation (sdf/README.md)
     mu: typing.Optional[float] = None  # None: the friction effect's mu (SDF 0.4), 0 without it
@@ -323,7 +323,7 @@ class LearnedDynamicsEffect(Effect):
         try:
             self.predictor = load_named_predictor(c.predictor)
         except WeightsError as e:
-            raise self.fail("predictor", f"expected 'improved', 'paper' or a weights file: {e}") from None
+            raise self.fail("predictor", f"{e} (learned_contact.sources lists what a predictor can be)") from None
         specs = self.scenario.containers
         self.pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))
                       if not (specs[i].fixed and specs[j].fixed)]

@@ -1,0 +1,164 @@
+"""Predictors the testbed did not ship: any model behind the Predictor interface.
+
+`ExternalPredictor` wraps a raw answer function (an ONNX session, a user's Python
+object) and gives it exactly the behaviour the shipped predictors have, so the bench,
+the effects, the gates and the closed loop treat every model alike:
+
+- inputs checked as the numpy reference path checks them (interface.check_numpy):
+  shapes, finiteness, proper rotations, sizes among `supported_sizes`;
+- outputs checked at run time (`check_answers`): shapes (n, 3), finite values and unit
+  normals; a batch with NaN/inf outputs or a normal whose length is further than
+  NORMAL_LENGTH_TOLERANCE from 1 is refused with PredictorOutputError naming how many
+  poses; normals within the tolerance are normalised;
+- depth: the model's own `depth` answer when it gives one, else the separating-axis
+  depth of the two boxes (testbed.box_geometry.sat_normal), the same figure the shipped
+  predictors report;
+- poses outside DOMAIN_DEPTH: outside="clip" clamps the point into A's box grown by
+  CLIP_MARGIN (as the shipped predictors do), outside="raise" refuses them.
+
+Frames and units as learned_contact.interface: p_AB (n, 3) [m] B's centre in A, R_AB
+(n, 3, 3) B's orientation in A, size_A/size_B full extents [m]; point_A (n, 3) [m] in
+A, normal_A (n, 3) unit from A into B.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+import numpy as np
+
+from learned_contact.errors import PredictorOutputError
+from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, check_numpy, check_outside, domain_error
+from testbed.box_geometry import sat_normal
+
+# A model's normals are accepted within this distance of unit length and normalised: a
+# float32 network normalising its own output is unit to ~1e-7; 1e-3 admits a model that
+# does not normalise but was trained towards unit vectors, and refuses one that is wrong.
+NORMAL_LENGTH_TOLERANCE = 1e-3
+
+# (p (n, 3), R (n, 3, 3), size_A (n, 3), size_B (n, 3)) -> (point (n, 3), normal (n, 3), depth (n,) or None)
+AnswerFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple]
+
+
+def default_sizes() -> np.ndarray:
+    """(k, 3) full extents [m] of every container type the testbed simulates: what a
+    model that states no `supported_sizes` is asked to answer."""
+    from testbed.containers import CONTAINER_TYPES
+
+    return np.array([t.size for t in CONTAINER_TYPES.values()], dtype=float)
+
+
+def check_answers(source: str, point, normal, depth, n: int):
+    """(point (n, 3), normal (n, 3) unit, depth (n,) or None) as float arrays, or
+    PredictorOutputError naming the source and what is wrong (shape, NaN/inf count,
+    normals off unit length count)."""
+    point = np.asarray(point, dtype=float)
+    normal = np.asarray(normal, dtype=float)
+    for name, value in (("point_A", point), ("normal_A", normal)):
+        if value.shape != (n, 3):
+            raise PredictorOutputError(f"{source}: output {name} has shape {value.shape} for {n} poses; "
+                                       f"expected ({n}, 3)")
+    if depth is not None:
+        depth = np.asarray(depth, dtype=float).reshape(-1)
+        if depth.shape != (n,):
+            raise PredictorOutputError(f"{source}: output depth has shape {np.shape(depth)} for {n} poses; "
+                                       f"expected ({n},)")
+    bad = ~(np.isfinite(point).all(axis=1) & np.isfinite(normal).all(axis=1))
+    if depth is not None:
+        bad |= ~np.isfinite(depth)
+    if np.any(bad):
+        raise PredictorOutputError(f"{source}: {int(bad.sum())} of {n} answers hold NaN or inf (first at pose "
+                                   f"{int(np.argmax(bad))}); expected finite point_A, normal_A and depth")
+    length = np.linalg.norm(normal, axis=1)
+    off = np.abs(length - 1.0) > NORMAL_LENGTH_TOLERANCE
+    if np.any(off):
+        worst = float(length[off][np.argmax(np.abs(length[off] - 1.0))])
+        raise PredictorOutputError(f"{source}: {int(off.sum())} of {n} normals are not unit length (worst "
+                                   f"|normal_A| = {worst:.6g}); expected unit vectors within "
+                                   f"{NORMAL_LENGTH_TOLERANCE:g}")
+    return point, normal / length[:, None], depth
+
+
+class ExternalPredictor:
+    """A model the testbed did not ship, behind learned_contact.interface.Predictor.
+
+    kind: its catalogue source ("onnx", "python"); name: what the bench and reports call
+    it; answer: the raw answer function (AnswerFn); supported_sizes (k, 3) full extents
+    [m]; source: the file or module:attribute it came from (named in every error).
+    `compiled` is False: the numba kernels are the shipped predictors' own.
+    """
+
+    compiled = False
+
+    def __init__(self, *, kind: str, name: str, answer: AnswerFn, supported_sizes, source: str,
+                 depth_fn: Optional[AnswerFn] = None):
+        self.kind, self.name, self.source = kind, name, source
+        self._answer, self._depth_fn = answer, depth_fn
+        self.supported_sizes = np.ascontiguousarray(supported_sizes, dtype=float).reshape(-1, 3)
+        self.meta = {"source": source, "name": name}
+
+    def __repr__(self) -> str:
+        return f"ExternalPredictor(kind={self.kind!r}, name={self.name!r}, source={self.source!r})"
+
+    def _checked(self, p_AB, R_AB, size_A, size_B):
+        return check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
+
+    def _raw(self, p, R, sA, sB):
+        point, normal, depth = self._answer(p, R, sA, sB)
+        point, normal, depth = check_answers(self.source, point, normal, depth, len(p))
+        if depth is None:
+            depth = self._depth_of(p, R, sA, sB)
+        return point, normal, depth
+
+    def _depth_of(self, p, R, sA, sB) -> np.ndarray:
+        if self._depth_fn is not None:
+            depth = np.asarray(self._depth_fn(p, R, sA, sB), dtype=float).reshape(-1)
+            if depth.shape != (len(p),) or not np.all(np.isfinite(depth)):
+                raise PredictorOutputError(f"{self.source}: depth answered shape {depth.shape} or non-finite "
+                                           f"values for {len(p)} poses; expected ({len(p)},) finite [m]")
+            return depth
+        return sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
+
+    def predict(self, p_AB, R_AB, *, size_A, size_B, outside: str = "clip"):
+        """(point_A (n, 3) [m], normal_A (n, 3) unit), (3,) each for a single pose; see
+        learned_contact.interface.Predictor.predict."""
+        check_outside(outside)
+        p, R, sA, sB, single = self._checked(p_AB, R_AB, size_A, size_B)
+        point, normal, depth = self._raw(p, R, sA, sB)
+        out = (depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])
+        if np.any(out):
+            if outside == "raise":
+                raise domain_error(depth)
+            bound = 0.5 * sA + CLIP_MARGIN
+            point = np.where(out[:, None], np.clip(point, -bound, bound), point)
+        return (point[0], normal[0]) if single else (point, normal)
+
+    def depth(self, p_AB, R_AB, *, size_A, size_B):
+        """(n,) penetration depth [m] (negative: separated); a float for a single pose."""
+        p, R, sA, sB, single = self._checked(p_AB, R_AB, size_A, size_B)
+        depth = self._depth_of(p, R, sA, sB)
+        return float(depth[0]) if single else depth
+
+    def in_domain(self, p_AB, R_AB, *, size_A, size_B):
+        """(n,) bool (a bool for a single pose): depth within DOMAIN_DEPTH."""
+        d = np.asarray(self.depth(p_AB, R_AB, size_A=size_A, size_B=size_B))
+        ok = (d >= DOMAIN_DEPTH[0]) & (d <= DOMAIN_DEPTH[1])
+        return bool(ok) if ok.ndim == 0 else ok
+
+
+def probe_poses(sizes: np.ndarray):
+    """A small batch every model must answer when it is loaded: B resting 5 mm deep on A
+    for every pair of supported sizes, one of them tilted and offset. Returns (p_AB (n, 3),
+    R_AB (n, 3, 3), size_A (n, 3), size_B (n, 3))."""
+    sizes = np.asarray(sizes, dtype=float).reshape(-1, 3)
+    pairs = [(a, b) for a in sizes for b in sizes]
+    n = len(pairs)
+    size_A = np.array([a for a, _ in pairs])
+    size_B = np.array([b for _, b in pairs])
+    p = np.zeros((n, 3))
+    p[:, 2] = 0.5 * (size_A[:, 2] + size_B[:, 2]) - 0.005
+    R = np.repeat(np.eye(3)[None], n, axis=0)
+    c, s = np.cos(0.01), np.sin(0.01)
+    R[0] = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    p[0, :2] = (0.3, -0.2)
+    return p, R, size_A, size_B

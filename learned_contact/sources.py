@@ -1,0 +1,88 @@
+"""The one catalogue of where a predictor can come from, and `load_predictor`.
+
+    load_predictor()                      # "improved": the shipped default
+    load_predictor("paper")               # the paper's MLP, shipped
+    load_predictor("my/weights.npz")      # a weights file of one of those two kinds
+    load_predictor("my_model.onnx")       # any ONNX model with the contract (onnx_model.py)
+    load_predictor("my_pkg.models:make")  # any Python object or factory (python_model.py)
+
+Every command option, effect field, gate and study that names a predictor takes these
+strings and nothing else lists them: help texts use HELP, labels use `label`. Which source
+a string is: a shipped name; else `module:attribute` when it reads so and is not an
+existing file; else a path, by suffix (.onnx, else a weights .npz).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Callable
+
+from learned_contact.errors import WeightsError
+from learned_contact.loading import SHIPPED, load_weights
+from learned_contact.onnx_model import load_onnx
+from learned_contact.python_model import is_python_spec, load_python
+
+DEFAULT = "improved"
+SHIPPED_NAMES = tuple(SHIPPED)  # ("improved", "paper")
+
+
+@dataclasses.dataclass(frozen=True)
+class Source:
+    """One kind of predictor source: its key, how it is written, and how it loads."""
+
+    key: str  # "shipped", "weights", "onnx", "python"
+    written: str  # how a user writes it
+    load: Callable  # (spec: str, compiled: bool) -> Predictor
+
+
+SOURCES = (
+    Source("shipped", " | ".join(SHIPPED_NAMES), lambda spec, compiled: load_weights(spec, compiled=compiled)),
+    Source("python", "module:attribute", lambda spec, compiled: load_python(spec)),
+    Source("onnx", "PATH.onnx", lambda spec, compiled: load_onnx(spec)),
+    Source("weights", "PATH.npz", lambda spec, compiled: load_weights(spec, compiled=compiled)),
+)
+BY_KEY = {s.key: s for s in SOURCES}
+HELP = ("improved (shipped default), paper, a weights file (.npz), an ONNX model (.onnx, the contract in "
+        "learned_contact/README.md) or module:attribute (a Python factory)")
+
+
+def source_of(spec) -> Source:
+    """The Source a predictor string names (see the module docstring)."""
+    if spec is None or spec in SHIPPED_NAMES:
+        return BY_KEY["shipped"]
+    spec = str(spec)
+    if is_python_spec(spec) and not Path(spec).exists():
+        return BY_KEY["python"]
+    if spec.lower().endswith(".onnx"):
+        return BY_KEY["onnx"]
+    return BY_KEY["weights"]
+
+
+def label(spec) -> str:
+    """A short, file-name-safe name for tables and directories: the shipped name, the
+    file's stem, or the Python attribute."""
+    if spec is None:
+        return DEFAULT
+    spec = str(spec)
+    key = source_of(spec).key
+    if key == "shipped":
+        return spec
+    if key == "python":
+        return spec.rpartition(":")[2].replace(".", "_")
+    return Path(spec).stem
+
+
+def load_predictor(spec=None, *, compiled: bool = True):
+    """The predictor `spec` names (None: "improved"); see the module docstring.
+
+    compiled: for the shipped kinds, run the numba kernels (True) or the numpy reference
+    (False); other sources run as they are. Raises WeightsError naming the file (or
+    module:attribute), the field and what was expected.
+    """
+    if spec is not None and not isinstance(spec, (str, Path)):
+        raise WeightsError(f"predictor {spec!r}: expected a string, {HELP}")
+    if spec is not None and str(spec).strip() == "":
+        raise WeightsError(f"predictor '': expected {HELP}")
+    source = source_of(spec)
+    return source.load(DEFAULT if spec is None else str(spec), compiled)
