@@ -1,0 +1,12 @@
+"""`testbed bench`: any set of predictors judged side by side, the same way.
+
+  accuracy.py  held-out pose sets (the gates' and a resting set), figures and ratios to the prior
+  cost.py      cost per query (one pair per call, batched, first call) against Drake and the shipped predictor
+  scenes.py    in-scene (open loop) accuracy and closed-loop verdicts in the shipped scenes
+  run.py       bench(specs, quick, out_dir): the Python API; the leaderboard and one verdict per predictor
+  report.py    bench.json, summary.md, index.html
+"""
+
+from testbed.bench.run import bench
+
+__all__ = ["bench"]

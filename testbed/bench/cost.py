@@ -1,0 +1,95 @@
+"""The bench's cost section: what one contact answer costs, side by side in one process.
+
+Per predictor, on the same stacking and general poses: seconds per pair asked one pair
+per call (a simulator's per-contact call) and batched (every pair of a step in one
+call), and the first-call cost (loading the model and answering one pose, in this
+process: compiled kernels come from numba's cache when it is warm). References measured
+in the same run: Drake's point-pair query (set the pose, then query: what the labels
+cost per pair) and the shipped improved predictor's compiled path; every figure is also
+given as a ratio to those (< 1: cheaper). Timings take the best of `repeats` rounds (the
+least disturbed by other work on a shared machine).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from learned_contact.sources import load_predictor
+
+SINGLE_PAIRS = 200
+BATCH = 1000
+
+
+def _best(fn, repeats: int, pairs: int) -> float:
+    """Best seconds per pair of `fn` over `repeats` rounds."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best / pairs
+
+
+def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: int = 0):
+    """(singles [(p, R, sA, sB)], batched (p, R, sA, sB)) drawn from the stacking and
+    general sets of `data` (bench.accuracy.pose_sets)."""
+    sets = [data[k] for k in ("stacking", "general")]
+    p, R, sA, sB = (np.concatenate([getattr(d, f) for d in sets]) for f in ("p_AB", "R_AB", "size_A", "size_B"))
+    rng = np.random.default_rng(seed)
+    rows = rng.choice(len(p), size=batch, replace=batch > len(p))
+    batched = tuple(np.ascontiguousarray(a[rows]) for a in (p, R, sA, sB))
+    rows = rng.choice(len(p), size=min(n_single, len(p)), replace=False)
+    singles = [(p[i].copy(), R[i].copy(), sA[i].copy(), sB[i].copy()) for i in rows]
+    return singles, batched
+
+
+def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:
+    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} of the predictor `spec`."""
+    t0 = time.perf_counter()
+    pred = load_predictor(spec)
+    p, R, sA, sB = singles[0]
+    pred.predict(p, R, size_A=sA, size_B=sB)
+    first = time.perf_counter() - t0
+    pb, Rb, sAb, sBb = batched
+    pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm
+    return {
+        "first_call_s": first,
+        "single_s_per_pair": _best(lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles],
+                                   repeats, len(singles)),
+        "batched_s_per_pair": _best(lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), repeats, len(pb)),
+    }
+
+
+def drake_point_cost(singles, repeats: int = 3) -> float:
+    """Seconds per pair of Drake's point-pair query, pose set each time (labels' pair plants)."""
+    from learned_contact.labels import _pair_scene, _query
+    from testbed.containers import CONTAINER_TYPES
+
+    code = {tuple(np.round(t.size, 3)): name for name, t in CONTAINER_TYPES.items()}
+    scenes = [_pair_scene(code[tuple(np.round(a, 3))], code[tuple(np.round(b, 3))]) for _, _, a, b in singles]
+    for scene, (p, R, _, _) in zip(scenes[:3], singles):  # build and warm
+        _query(scene, R, p).ComputePointPairPenetration()
+    return _best(lambda: [_query(s, R, p).ComputePointPairPenetration() for s, (p, R, _, _) in zip(scenes, singles)],
+                 repeats, len(singles))
+
+
+def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
+    """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process."""
+    singles, batched = poses(data)
+    reference = predictor_cost("improved", singles, batched, repeats)
+    drake = drake_point_cost(singles, repeats)
+    out = {}
+    for spec in specs:
+        c = reference if spec == "improved" else predictor_cost(spec, singles, batched, repeats)
+        out[spec] = {**c,
+                     "single_vs_drake_point": c["single_s_per_pair"] / drake,
+                     "batched_vs_drake_point": c["batched_s_per_pair"] / drake,
+                     "single_vs_improved_compiled": c["single_s_per_pair"] / reference["single_s_per_pair"],
+                     "batched_vs_improved_compiled": c["batched_s_per_pair"] / reference["batched_s_per_pair"]}
+    return {"predictors": out, "references": {
+        "drake_point_pair_set_pose_and_query_s_per_pair": drake,
+        "improved_compiled_single_s_per_pair": reference["single_s_per_pair"],
+        "improved_compiled_batched_s_per_pair": reference["batched_s_per_pair"],
+        "single_pairs": len(singles), "batch": len(batched[0]), "repeats": repeats}}

@@ -1,0 +1,139 @@
+"""The bench's files: bench.json (the data `bench` returns), summary.md and a
+self-contained index.html (leaderboard first, then accuracy, cost, scenes; plots
+embedded), written together into a temporary directory renamed into place on success."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from testbed.document import Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
+from testbed.records import atomic_directory
+
+
+def _n(value, scale=1.0, fmt=".3g") -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    return format(value * scale, fmt)
+
+
+def _leaderboard(data: dict) -> Section:
+    rows = []
+    for rank, spec in enumerate(data["leaderboard"], 1):
+        e = data["predictors"][spec]
+        s, c = e["accuracy"]["sets"], e["cost"]
+        closed = e["closed_loop"]
+        rows.append((rank, e["label"], e["kind"], "yes" if e["good_enough"] else "no",
+                     f"{e['accuracy']['gates_passed']}/{e['accuracy']['gates_total']}",
+                     f"{sum(f['passed'] for f in closed.values())}/{len(closed)}",
+                     _n(s["stacking"]["point_median_m"], 100), _n(s["resting"]["point_median_m"], 100),
+                     _n(s["general"]["point_p95_m"], 100), _n(s["stacking"]["normal_p95_deg"]),
+                     _n(c["single_s_per_pair"], 1e6), _n(c["batched_s_per_pair"], 1e6),
+                     _n(c["batched_vs_drake_point"], fmt=".2g")))
+    return Section("Leaderboard", [
+        table(["#", "predictor", "source", "good enough", "accuracy gates", "closed-loop scenes", "stacking point "
+               "median [cm]", "resting point median [cm]", "general point p95 [cm]", "stacking normal p95 [deg]",
+               "us/pair single", "us/pair batched", "batched / Drake point-pair"], rows),
+        Text("Good enough = every accuracy gate of learned_contact/gates.py and every closed-loop gate on every "
+             "scene passes. Costs are measured side by side in this process (best of the rounds)."),
+    ], order=1)
+
+
+def _accuracy(data: dict) -> Section:
+    rows = []
+    for spec in data["leaderboard"]:
+        e = data["predictors"][spec]
+        for name, f in e["accuracy"]["sets"].items():
+            rows.append((e["label"], name, f["n"], *(_n(f[f"point_{q}_m"], 100) for q in ("median", "p95", "p99")),
+                         *(_n(f[f"normal_{q}_deg"]) for q in ("median", "p95", "p99")),
+                         _n(f["point_median_m_vs_prior"], fmt=".2f"), _n(f["point_p95_m_vs_prior"], fmt=".2f")))
+    return Section("Accuracy on held-out poses (Drake static hydroelastic labels)", [
+        Text("Sets: stacking and general (the training distributions, unused seeds), outside (stacking beyond the "
+             "training ranges), resting (0 to 0.5 mm overlap, roll and pitch within 0.05 deg: where shipped stacks "
+             "sit). 'vs prior': the figure over the geometric estimate's alone on the same poses (< 1: better)."),
+        table(["predictor", "set", "poses", "point median [cm]", "p95 [cm]", "p99 [cm]", "normal median [deg]",
+               "p95 [deg]", "p99 [deg]", "point median vs prior", "point p95 vs prior"], rows),
+        _plot(data)], order=2)
+
+
+def _plot(data: dict) -> Figure:
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for spec in data["leaderboard"]:
+        e = data["predictors"][spec]
+        sets = e["accuracy"]["sets"]
+        axes[0].scatter(e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100, s=40)
+        axes[0].annotate(e["label"], (e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100))
+        axes[1].plot(list(sets), [f["point_median_m"] * 100 for f in sets.values()], "o-", label=e["label"])
+    drake = data["references"]["drake_point_pair_set_pose_and_query_s_per_pair"] * 1e6
+    axes[0].axvline(drake, color="grey", ls="--", label="Drake point-pair query")
+    axes[0].set(xscale="log", xlabel="cost per pair, batched [us]", ylabel="stacking point error p95 [cm]",
+                title="accuracy against cost")
+    axes[0].legend(fontsize=8)
+    axes[1].set(yscale="log", ylabel="point error median [cm]", title="point error per pose set")
+    axes[1].legend(fontsize=8)
+    return Figure("bench_accuracy_cost.png", "accuracy against cost, and point error per pose set", png(fig))
+
+
+def _cost(data: dict) -> Section:
+    ref = data["references"]
+    rows = [(data["predictors"][s]["label"], _n(c["first_call_s"], fmt=".3g"), _n(c["single_s_per_pair"], 1e6),
+             _n(c["batched_s_per_pair"], 1e6), _n(c["single_vs_drake_point"], fmt=".2g"),
+             _n(c["batched_vs_drake_point"], fmt=".2g"), _n(c["single_vs_improved_compiled"], fmt=".2g"),
+             _n(c["batched_vs_improved_compiled"], fmt=".2g"))
+            for s in data["leaderboard"] for c in [data["predictors"][s]["cost"]]]
+    return Section("Cost per query", [
+        Text(f"One pair per call ({ref['single_pairs']} pairs) and batched ({ref['batch']} pairs per call), best of "
+             f"{ref['repeats']} rounds; first call = load + one answer. References in the same run: Drake's "
+             f"point-pair query with the pose set, {ref['drake_point_pair_set_pose_and_query_s_per_pair'] * 1e6:.3g} "
+             f"us/pair; the shipped improved predictor compiled, {ref['improved_compiled_single_s_per_pair'] * 1e6:.3g} "
+             f"us/pair single, {ref['improved_compiled_batched_s_per_pair'] * 1e6:.3g} us/pair batched."),
+        table(["predictor", "first call [s]", "us/pair single", "us/pair batched", "single / Drake point",
+               "batched / Drake point", "single / improved compiled", "batched / improved compiled"], rows)], order=3)
+
+
+def _scenes(data: dict) -> Section:
+    open_rows, closed_rows = [], []
+    for spec in data["leaderboard"]:
+        e = data["predictors"][spec]
+        for scene, f in e["in_scene"].items():
+            open_rows.append((e["label"], scene, _n(f["duration_s"], fmt="g"), _n(f["point_error_median_m"], 100),
+                              _n(f["point_error_max_m"], 100), _n(f["normal_error_median_deg"]),
+                              _n(f["normal_error_max_deg"])))
+        for scene, f in e["closed_loop"].items():
+            bad = [g["name"] for g in f["gates"] if not g["passed"]]
+            closed_rows.append((e["label"], scene, _n(f["duration_s"], fmt="g"), "yes" if f["diverged"] else "no",
+                                _n(f["final_position_error_max_m"], 1e3), _n(f["final_angle_error_max_deg"]),
+                                _n(f["max_penetration_m"], 1e3), _n(f["speedup_vs_truth"], fmt=".2f"),
+                                "PASS" if f["passed"] else "FAIL: " + ", ".join(bad)))
+    return Section("In the shipped scenes", [
+        Text("Open loop: Drake hydroelastic contact drives the scene; the predictor is asked at every recorded step "
+             "and compared with Drake's centre of pressure and normal."),
+        table(["predictor", "scene", "simulated [s]", "point median [cm]", "point max [cm]", "normal median [deg]",
+               "normal max [deg]"], open_rows),
+        Text("Closed loop: the predictor drives the container-container contact (learned_dynamics) against one Drake "
+             "hydroelastic truth run per scene; the gates of the validation's closed-loop section, for every predictor."),
+        table(["predictor", "scene", "simulated [s]", "diverged", "final position error [mm]", "final angle error [deg]",
+               "max penetration [mm]", "x speed of the truth", "gates"], closed_rows)], order=4)
+
+
+def sections(data: dict) -> list[Section]:
+    verdicts = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}" for s in data["leaderboard"]]
+    head = Section(None, [Verdict(any(data["predictors"][s]["good_enough"] for s in data["leaderboard"]),
+                                  " | ".join(verdicts))], order=0)
+    return [head, _leaderboard(data), _accuracy(data), _cost(data), _scenes(data)]
+
+
+def write_bench(out_dir: Path, data: dict) -> Path:
+    """bench.json, summary.md, index.html (and the plot's PNG beside summary.md) in out_dir."""
+    parts = sections(data)
+    title = f"Predictor bench{' (quick)' if data['quick'] else ''}: {', '.join(p['label'] for p in data['predictors'].values())}"
+    with atomic_directory(out_dir) as tmp:
+        tmp = Path(tmp)
+        (tmp / "bench.json").write_text(json.dumps(data, indent=1, default=float))
+        (tmp / "summary.md").write_text(to_markdown(title, parts))
+        (tmp / "index.html").write_text(to_html(title, parts))
+        for block in (b for s in parts for b in s.blocks if isinstance(b, Figure)):
+            (tmp / block.file).write_bytes(block.png)
+    return out_dir

@@ -1,0 +1,95 @@
+"""`bench(specs)`: judge predictors side by side (the Python API behind `testbed bench`).
+
+    from testbed.bench import bench
+    data = bench(["improved", "paper", "my_model.onnx"], quick=True, out_dir="reports/bench")
+
+Returns the dict written to bench.json: {"schema", "quick", "seed", "predictors": {spec:
+{"label", "kind", "name", "accuracy", "cost", "in_scene", "closed_loop", "verdict"}},
+"references", "leaderboard": [spec, ...] best first}. Every predictor is loaded first,
+so a bad file fails before anything runs (WeightsError: exit 2 from the CLI).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from learned_contact.sources import label, load_predictor
+from testbed.bench.accuracy import pose_sets, accuracy
+from testbed.bench.cost import cost_table
+from testbed.bench.scenes import (CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop,
+                                  open_loop)
+from testbed.errors import TestbedError
+
+SCHEMA = "testbed.bench/1"
+DEFAULT_PREDICTORS = ("improved", "paper")
+N_POSES, QUICK_POSES = 400, 100  # per held-out set (the gates use 400)
+
+
+def _verdict(entry: dict) -> tuple[bool, str]:
+    """(good enough, one line): every accuracy gate and every closed-loop scene's gates pass."""
+    acc, closed = entry["accuracy"], entry["closed_loop"]
+    held = [s for s, f in closed.items() if f["passed"]]
+    failed = [s for s, f in closed.items() if not f["passed"]]
+    cost = entry["cost"]
+    good = acc["gates_passed"] == acc["gates_total"] and not failed
+    return good, (f"{'GOOD ENOUGH' if good else 'NOT GOOD ENOUGH'}: accuracy gates {acc['gates_passed']}/"
+                  f"{acc['gates_total']}, closed loop {len(held)}/{len(closed)} scenes within gates"
+                  + (f" (fails {', '.join(failed)})" if failed else "")
+                  + f", {cost['batched_vs_drake_point']:.2g}x Drake point-pair's cost per pair batched, "
+                  f"{cost['single_vs_drake_point']:.2g}x one pair per call")
+
+
+def _score(entry: dict) -> tuple:
+    """Leaderboard order: good enough first, then closed-loop scenes held, accuracy gates
+    passed, stacking point median, then batched cost."""
+    acc = entry["accuracy"]
+    return (not entry["good_enough"], -sum(f["passed"] for f in entry["closed_loop"].values()),
+            -acc["gates_passed"], acc["sets"]["stacking"]["point_median_m"], entry["cost"]["batched_s_per_pair"])
+
+
+def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: int = 0, workers: int = 2,
+          progress: bool = True) -> dict:
+    """Judges each predictor in `specs` (learned_contact.sources strings) the same way; see
+    the module docstring. Writes bench.json, summary.md and index.html to out_dir when given."""
+    specs = list(dict.fromkeys(str(s) for s in specs)) or list(DEFAULT_PREDICTORS)
+    labels = [label(s) for s in specs]
+    if len(set(labels)) != len(labels):
+        raise TestbedError(f"predictors {specs}: two have the same label {labels}; give them distinct file names")
+    say = (lambda msg: print(f"bench: {msg}", flush=True)) if progress else (lambda msg: None)
+    loaded = {s: load_predictor(s) for s in specs}  # every model checked before anything runs
+    t0 = time.perf_counter()
+    n = QUICK_POSES if quick else N_POSES
+    say(f"labelling held-out poses ({n} per set) with Drake")
+    data = pose_sets(seed, n, workers=workers)
+    entries = {}
+    for s in specs:
+        say(f"accuracy: {s}")
+        entries[s] = {"label": label(s), "kind": getattr(loaded[s], "kind", "?"),
+                      "name": getattr(loaded[s], "name", label(s)), "accuracy": accuracy(loaded[s], data, seed)}
+    say("cost per query (side by side, one process)")
+    costs = cost_table(specs, data, repeats=2 if quick else 3)
+    for s in specs:
+        entries[s]["cost"] = costs["predictors"][s]
+    for s in specs:
+        entries[s]["in_scene"] = {}
+        for scene, duration in (QUICK_OPEN_SCENES if quick else OPEN_SCENES):
+            say(f"in-scene (open loop): {s} on {scene}")
+            entries[s]["in_scene"][scene] = open_loop(s, scene, duration)
+    for s in specs:
+        entries[s]["closed_loop"] = {}
+    for scene, duration in (QUICK_CLOSED_SCENES if quick else CLOSED_SCENES):
+        say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
+        result = closed_loop(specs, scene, duration)
+        for s in specs:
+            entries[s]["closed_loop"][scene] = {**result["predictors"][s], "duration_s": result["duration_s"]}
+    for s in specs:
+        entries[s]["good_enough"], entries[s]["verdict"] = _verdict(entries[s])
+    board = sorted(specs, key=lambda s: _score(entries[s]))
+    out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
+           "references": costs["references"], "leaderboard": board, "wall_s": time.perf_counter() - t0}
+    if out_dir is not None:
+        from testbed.bench.report import write_bench
+
+        write_bench(Path(out_dir), out)
+    return out

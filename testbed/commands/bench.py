@@ -1,0 +1,37 @@
+"""`testbed bench PREDICTOR [PREDICTOR ...]`: judge predictors side by side (testbed.bench)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from learned_contact import sources
+from testbed.commands import timestamp
+
+NAME = "bench"
+HELP = "judge one or more contact predictors side by side (accuracy, scenes, closed loop, cost) -> bench.json"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("predictors", nargs="*", default=["improved", "paper"],
+                        help=f"each one of: {sources.HELP} (default: improved paper)")
+    parser.add_argument("--quick", action="store_true",
+                        help="100 poses per set, two_stack open loop, two closed-loop scenes (a few minutes)")
+    parser.add_argument("--out", help="output directory (default reports/bench/<time>)")
+    parser.add_argument("--workers", type=int, default=2, help="processes labelling the held-out poses (default 2)")
+    parser.add_argument("--seed", type=int, default=0, help="held-out seed (the gates use 0)")
+
+
+def run(args) -> int:
+    from testbed.bench import bench
+    from testbed.errors import TestbedError
+
+    if args.workers < 1:
+        raise TestbedError(f"--workers: expected at least 1, got {args.workers}")
+    out = Path(args.out) if args.out else Path("reports") / "bench" / timestamp()
+    data = bench(args.predictors or ["improved", "paper"], quick=args.quick, out_dir=out, seed=args.seed,
+                 workers=args.workers)
+    for rank, spec in enumerate(data["leaderboard"], 1):
+        e = data["predictors"][spec]
+        print(f"{rank}. {e['label']} ({e['kind']}): {e['verdict']}")
+    print(f"report: {out / 'index.html'}")
+    return 0
