@@ -2,8 +2,9 @@
 
 Per predictor, on the same stacking and general poses: seconds per pair asked one pair
 per call (a simulator's per-contact call) and batched (every pair of a step in one
-call), and the first-call cost (loading the model and answering one pose, in this
-process: compiled kernels come from numba's cache when it is warm). References measured
+call), and the first-call cost (importing learned_contact, loading the model and
+answering one pose, in a fresh Python process: what a simulator pays at start-up, with
+numba's on-disk cache as this machine has it). References measured
 in the same run: Drake's point-pair query (set the pose, then query: what the labels
 cost per pair) and the shipped improved predictor's compiled path; every figure is also
 given as a ratio to those (< 1: cheaper). Timings take the best of `repeats` rounds (the
@@ -45,13 +46,39 @@ def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: in
     return singles, batched
 
 
+FIRST_CALL = (
+    "import os, sys, time\n"
+    "sys.path.append(os.getcwd())\n"
+    "t0 = time.perf_counter()\n"
+    "import numpy as np\n"
+    "from learned_contact import load_predictor\n"
+    "pred = load_predictor(sys.argv[1])\n"
+    "size = pred.supported_sizes[0]\n"
+    "pred.predict(np.array([0.0, 0.0, size[2] - 0.005]), np.eye(3), size_A=size, size_B=size)\n"
+    "print(time.perf_counter() - t0)\n"
+)
+
+
+def first_call_cost(spec: str) -> float:
+    """Seconds from a fresh interpreter's first import to the first answer of `spec` (the
+    child sees this process's sys.path, so a Python model found here is found there)."""
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+    proc = subprocess.run([sys.executable, "-c", FIRST_CALL, spec], capture_output=True, text=True, timeout=600,
+                          env=env)
+    if proc.returncode != 0:
+        tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]
+        raise RuntimeError(f"first-call measurement of {spec} failed in a fresh process: {tail}")
+    return float(proc.stdout.strip().splitlines()[-1])
+
+
 def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:
     """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} of the predictor `spec`."""
-    t0 = time.perf_counter()
     pred = load_predictor(spec)
-    p, R, sA, sB = singles[0]
-    pred.predict(p, R, size_A=sA, size_B=sB)
-    first = time.perf_counter() - t0
+    first = first_call_cost(spec)
     pb, Rb, sAb, sBb = batched
     pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm
     return {

@@ -15,13 +15,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="reports", metavar="DIR",
                         help="where the run directory <time>/ is made (default reports)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--predictor", action="append", default=[], metavar="P",
+                        help="add a predictor to the learned, closed-loop and query sections (repeatable; reported "
+                             "beside the shipped ones, not gated): an ONNX model, a weights .npz or module:attribute")
 
 
 def run(args) -> int:
     from testbed.validation import validate
 
     run_dir, metrics = validate(suite_name=args.suite, workers=args.workers, executor=args.executor,
-                                address=args.address, resume=args.resume, out_root=args.out, progress=not args.quiet)
+                                address=args.address, resume=args.resume, out_root=args.out, progress=not args.quiet,
+                                predictors=args.predictor)
     print((run_dir / "summary.md").read_text())
     print(f"report: {run_dir / 'index.html'}")
     return 0 if metrics["passed"] else 3

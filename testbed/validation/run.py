@@ -28,9 +28,15 @@ from testbed.validation.report import SCHEMA_VERSION, write_report
 
 def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "local", address=None,
              resume: str | Path | None = None, out_root: str | Path = "reports", progress: bool = True,
-             cases: list[Case] | None = None, replays: int = 2) -> tuple[Path, dict]:
+             cases: list[Case] | None = None, replays: int = 2, predictors=()) -> tuple[Path, dict]:
     """Runs (or resumes) a suite and writes the report, with Meshcat replays of the
-    `replays` worst learned cases. Returns (run_dir, metrics)."""
+    `replays` worst learned cases. predictors: more predictors (learned_contact.sources
+    strings) added to the learned, closed-loop and query sections, reported beside the
+    shipped ones (each is loaded and checked first: a bad one writes nothing). Returns
+    (run_dir, metrics)."""
+    if predictors and resume is not None:
+        raise TestbedError("--predictor with --resume: the resumed run keeps the predictors it started with")
+    predictors = _checked_predictors(predictors)
     if resume is not None:
         run_dir = Path(resume)
         spec_path = run_dir / "suite.json"
@@ -40,6 +46,8 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
         cases = [Case(**c) for c in spec["cases"]]
     else:
         cases = cases if cases is not None else suites.suite(suite_name)
+        if predictors:
+            cases = suites.with_predictors(cases, predictors)
         run_dir = _new_run_dir(Path(out_root))
         spec = {"schema": SCHEMA_VERSION, "suite": suite_name, "cases": [c.to_dict() for c in cases]}
         write_atomic(run_dir / "suite.json", json.dumps(spec, indent=1))
@@ -55,6 +63,25 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
     write_worst_replays(run_dir, records, replays)
     metrics = write_report(run_dir, spec, records)
     return run_dir, metrics
+
+
+def _checked_predictors(predictors) -> list[str]:
+    """The predictors as learned_contact.sources strings that workers can load (files as
+    absolute paths), each loaded once here so that a bad one fails before anything runs."""
+    from learned_contact import sources
+
+    out = []
+    for spec in predictors:
+        spec = str(spec)
+        if sources.source_of(spec).key in ("onnx", "weights"):
+            spec = str(Path(spec).resolve())
+        sources.load_predictor(spec)
+        out.append(spec)
+    labels = [sources.label(p) for p in out]
+    if len(set(labels)) != len(labels) or set(labels) & set(sources.SHIPPED_NAMES):
+        raise TestbedError(f"--predictor {list(predictors)}: labels {labels} repeat or name a shipped predictor; "
+                           "give the files distinct names")
+    return out
 
 
 def _new_run_dir(out_root: Path) -> Path:

@@ -17,3 +17,13 @@ def suite(name: str) -> list[Case]:
     if name not in SUITES:
         raise TestbedError(f"--suite: unknown suite {name!r}; expected one of: {', '.join(SUITES)}")
     return [case for kind in registry().values() for case in kind.cases(name)]
+
+
+def with_predictors(cases: list[Case], predictors: list[str]) -> list[Case]:
+    """`cases` with more predictors judged (each kind's CaseKind.with_predictors, applied
+    to its own cases, in the same order)."""
+    kinds = registry()
+    out = []
+    for name, kind in kinds.items():
+        out += kind.with_predictors([c for c in cases if c.kind == name], list(predictors))
+    return out + [c for c in cases if c.kind not in kinds]

@@ -43,7 +43,7 @@ def _environment() -> dict:
 
 def run_query_study(out_dir, *, n_poses: int | None = None, seed: int = 0, quick: bool = False,
                     progress: bool = True, repeats: int | None = None, soup_ns=None, predictor=None,
-                    paper_weights=None) -> dict:
+                    paper_weights=None, extra_predictors=()) -> dict:
     """Runs the query study and writes query.json, query.md, query_pareto.png to out_dir.
 
     n_poses: proposals per pose set (default 200, quick 12); seed: sampling seed;
@@ -69,7 +69,8 @@ def run_query_study(out_dir, *, n_poses: int | None = None, seed: int = 0, quick
     sets = make_pose_sets(n_poses, seed, progress=progress)
     t_labels = time.perf_counter() - t_start
     scenes = Scenes()
-    options = MethodOptions(soup_ns=soup_ns, predictor=predictor, paper_weights=paper_weights)
+    options = MethodOptions(soup_ns=soup_ns, predictor=predictor, paper_weights=paper_weights,
+                            extra_predictors=tuple(extra_predictors))
     results, method_info = {}, {}
     with one_blas_thread() as blas_threads:
         for name, poses in sets.items():

@@ -43,6 +43,13 @@ class CaseKind:
         """This kind's cases in the named suite (default, full, smoke)."""
         return []
 
+    def with_predictors(self, cases: list[Case], predictors: list[str]) -> list[Case]:
+        """This kind's cases of a suite with more predictors to judge (`testbed validate
+        --predictor`; learned_contact.sources strings, files as absolute paths): kinds
+        that measure predictors add them, reported beside the shipped ones, not gated.
+        Default: unchanged."""
+        return cases
+
     def run(self, **params) -> dict:
         """Runs one case in this process and returns its JSON-able result."""
         raise NotImplementedError

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+from learned_contact import sources
 from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.document import Bullets, Section, Text, table
@@ -104,6 +105,11 @@ class ClosedLoopCase(CaseKind):
         if suite in ("default", "full"):
             return closed_loop_cases(DEFAULT_SCENES)
         return []
+
+    def with_predictors(self, cases: list[Case], predictors: list[str]) -> list[Case]:
+        """Every closed-loop scene runs the extra predictors too, against the same truth run."""
+        return [Case(c.id, c.kind, {**c.params, "predictors": list(dict.fromkeys([*c.params["predictors"], *predictors]))})
+                for c in cases]
 
     def run(self, scene: str, duration: float, predictors=PREDICTORS) -> dict:
         import tempfile
@@ -219,7 +225,7 @@ def _num(value, scale=1.0, fmt=".3g") -> str:
 
 
 def _row(s: dict, name: str, f: dict) -> tuple:
-    return (s["scene"], name, _num(f["simulated_s_learned"], fmt="g"), "yes" if f["diverged"] else "no",
+    return (s["scene"], sources.label(name) + ("" if name in PREDICTORS else " (reported, not gated)"), _num(f["simulated_s_learned"], fmt="g"), "yes" if f["diverged"] else "no",
             _num(f["final_position_error_max_m"], 1e3), _num(f["final_angle_error_max_deg"]),
             _num(f["max_penetration_m"], 1e3), f"{_num(f['energy_gain_gated_J'])} ({_num(s['energy_limit_J'])})",
             _drift(s, f),
@@ -252,12 +258,12 @@ def verdict(s: dict) -> str:
                 when = (f"max penetration {_num(f['max_penetration_m'], 1e3)} mm, "
                         f"energy created {_num(f['energy_gain_gated_J'])} J")
             left = f["leaves_truth_at_s"]
-            parts.append(f"{name} diverges" + (f", leaves the truth by 2 cm at t = {left:g} s" if left is not None else "")
+            parts.append(f"{sources.label(name)} diverges" + (f", leaves the truth by 2 cm at t = {left:g} s" if left is not None else "")
                          + f"; {when}")
             continue
         ok = ClosedLoopCase().gates({"id": "", "result": {**s, "predictors": {GATED: f}}})
         bad = [g.name.split(": ")[-1] for g in ok if not g.passed]
-        what = f"{name} can drive it" if not bad else f"{name} runs but misses: {', '.join(bad)}"
+        what = f"{sources.label(name)} can drive it" if not bad else f"{sources.label(name)} runs but misses: {', '.join(bad)}"
         speeds = f"{_speed(f['speedup_vs_truth'], 'hydroelastic')}, {_speed(f['speedup_vs_point'], 'point')}"
         parts.append(f"{what}: {speeds}")
     return f"{s['scene']}: " + "; ".join(parts)

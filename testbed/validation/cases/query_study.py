@@ -20,14 +20,19 @@ class QueryStudyCase(CaseKind):
             return [Case("query-study", "query_study", {"quick": suite == "default", "seed": 0})]
         return []
 
-    def run(self, quick: bool, seed: int) -> dict:
+    def with_predictors(self, cases: list[Case], predictors: list[str]) -> list[Case]:
+        """The study times the added predictors too (methods bench_<label>_single/_batched)."""
+        return [Case(c.id, c.kind, {**c.params, "predictors": list(predictors)}) for c in cases]
+
+    def run(self, quick: bool, seed: int, predictors=()) -> dict:
         import tempfile
         from pathlib import Path
 
         from testbed.studies.query import run_query_study
 
         with tempfile.TemporaryDirectory() as tmp:
-            return {"metrics": run_query_study(Path(tmp), quick=quick, seed=seed, progress=False)}
+            return {"metrics": run_query_study(Path(tmp), quick=quick, seed=seed, progress=False,
+                                               extra_predictors=tuple(predictors))}
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:

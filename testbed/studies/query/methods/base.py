@@ -46,11 +46,13 @@ class MethodOptions:
 
     soup_ns: polygon-soup resolutions N (divisions per box edge) to run;
     predictor, paper_weights: weights files of the improved predictor and the paper MLP
-    (None: the shipped ones)."""
+    (None: the shipped ones); extra_predictors: more predictors (learned_contact.sources
+    strings: ONNX models, Python objects, weights files), each a pair of methods."""
 
     soup_ns: tuple = ()
     predictor: object = None
     paper_weights: object = None
+    extra_predictors: tuple = ()
 
 
 class Scenes:

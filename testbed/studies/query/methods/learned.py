@@ -2,13 +2,16 @@
 
 - paper_mlp_single / paper_mlp_batched: the paper-faithful 6-20-18-4 tanh MLP,
   learned_contact.load_predictor("paper"), one pair per call / all pairs per call;
-- improved_single / improved_batched: learned_contact.load_predictor("improved").
+- improved_single / improved_batched: learned_contact.load_predictor("improved");
+- <label>_single / <label>_batched for each of MethodOptions.extra_predictors (any
+  learned_contact.sources string: an ONNX model, a Python object, a weights file).
 Both answer learned_contact.interface.Predictor; weights are decoded there, not here.
 Missing or unreadable weights mark the methods unavailable, with the reason.
 """
 
 from __future__ import annotations
 
+from learned_contact import sources
 from testbed.studies.query.methods.base import ContactMethod
 
 ORDER = 40
@@ -28,15 +31,16 @@ def paper_predict(mlp, p_AB, R_AB, size_A):
 
 
 def build(poses, scenes, options) -> list[ContactMethod]:
-    """The paper MLP's and the improved predictor's methods, one pair per call and batched."""
+    """The paper MLP's and the improved predictor's methods (and those of any extra
+    predictor), one pair per call and batched."""
     P, R, SA, SB = poses.p_AB, poses.R_AB, poses.size_A, poses.size_B
     methods = []
-    for prefix, label, name, field in MODELS:
+    models = [(prefix, label, getattr(options, field) or name) for prefix, label, name, field in MODELS]
+    models += [(f"bench_{sources.label(spec)}", f"{sources.label(spec)} ({sources.source_of(spec).key})", spec)
+               for spec in options.extra_predictors]
+    for prefix, label, spec in models:
         try:
-            from learned_contact import load_predictor
-
-            path = getattr(options, field)
-            predictor = load_predictor(path if path is not None else name)
+            predictor = sources.load_predictor(spec)
         except Exception as exc:  # noqa: BLE001 - missing or unreadable weights: report, go on
             methods += [ContactMethod(f"{prefix}_{kind}", f"{label}, {how}", "learned", False, f"{type(exc).__name__}: {exc}")
                         for kind, how in (("single", "one pair per call"), ("batched", "batched"))]

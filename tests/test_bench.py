@@ -1,0 +1,128 @@
+"""`testbed bench` and `testbed validate --predictor`: any model judged beside the shipped
+ones, by the same sections. The crude centre-line ONNX model and the geometric prior (a
+Python object) are the models the bench must rank below the shipped predictor."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("onnxruntime", reason="pip install onnxruntime==1.30.0")
+
+import bench_models as bm  # noqa: E402
+
+TESTS = Path(__file__).resolve().parent
+
+
+@pytest.fixture(scope="module")
+def centre_line(tmp_path_factory):
+    return str(bm.centre_line_onnx(tmp_path_factory.mktemp("models") / "centre_line.onnx"))
+
+
+@pytest.fixture(scope="module")
+def quick_bench(centre_line, tmp_path_factory):
+    from testbed.bench import bench
+
+    out = tmp_path_factory.mktemp("bench") / "out"
+    return bench(["improved", centre_line, "bench_models:GeometricModel"], quick=True, out_dir=out,
+                 progress=False), out
+
+
+def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
+    data, out = quick_bench
+    specs = ["improved", centre_line, "bench_models:GeometricModel"]
+    assert sorted(data["leaderboard"]) == sorted(specs)
+    for spec in specs:
+        e = data["predictors"][spec]
+        assert set(e) >= {"accuracy", "cost", "in_scene", "closed_loop", "verdict", "good_enough"}
+        assert set(e["accuracy"]["sets"]) == {"stacking", "general", "outside", "resting"}
+        assert e["accuracy"]["gates_total"] == len(e["accuracy"]["gates"]) > 0
+        assert set(e["closed_loop"]) == {"two_stack", "crane_misaligned"}
+        assert e["cost"]["batched_s_per_pair"] > 0 and e["cost"]["first_call_s"] > 0
+        assert e["verdict"].startswith("GOOD ENOUGH" if e["good_enough"] else "NOT GOOD ENOUGH")
+    # the shipped predictor beats both simple alternatives on held-out stacking poses, and
+    # the prior is its own reference (ratio 1 by construction)
+    improved, line = data["predictors"]["improved"], data["predictors"][centre_line]
+    geo = data["predictors"]["bench_models:GeometricModel"]
+    assert improved["accuracy"]["sets"]["stacking"]["point_median_m"] < 0.65 * geo["accuracy"]["sets"]["stacking"]["point_median_m"]
+    assert line["accuracy"]["sets"]["stacking"]["point_median_m"] > 10 * improved["accuracy"]["sets"]["stacking"]["point_median_m"]
+    assert geo["accuracy"]["sets"]["general"]["point_p95_m_vs_prior"] == pytest.approx(1.0, abs=1e-9)
+    assert line["accuracy"]["gates_passed"] < line["accuracy"]["gates_total"] and not line["good_enough"]
+    assert data["leaderboard"].index("improved") < data["leaderboard"].index(centre_line)
+    # the files hold the same data; every predictor is in the leaderboard table
+    on_disk = json.loads((out / "bench.json").read_text())
+    assert on_disk["leaderboard"] == data["leaderboard"]
+    html = (out / "index.html").read_text()
+    assert all(label in html for label in ("improved", "centre_line", "GeometricModel")) and "data:image/png;base64" in html
+
+
+def test_bench_cli_refuses_a_bad_model_with_nothing_written(tmp_path):
+    bad = bm.centre_line_onnx(tmp_path / "bad.onnx", input_names=("p", "R_AB", "size_A", "size_B"))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "testbed.cli", "bench", "improved", str(bad), "--quick", "--out",
+                           str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and str(bad) in proc.stderr and "p_AB" in proc.stderr
+    assert not out.exists()
+
+
+def test_validate_predictor_is_reported_beside_the_shipped_ones_not_gated(tmp_path, centre_line):
+    from testbed.validation import validate
+
+    run_dir, metrics = validate(suite_name="smoke", workers=1, out_root=tmp_path, progress=False, replays=0,
+                                predictors=[centre_line])
+    record = json.loads((run_dir / "cases" / "closed-two_stack.json").read_text())
+    assert centre_line in record["result"]["predictors"]  # ran against the same truth run
+    assert not any("centre_line" in g["name"] for g in metrics["gates"])  # reported, not gated
+    assert "centre_line (reported, not gated)" in (run_dir / "summary.md").read_text()
+
+
+def test_validate_refuses_a_bad_predictor_before_anything_runs(tmp_path):
+    from learned_contact import WeightsError
+    from testbed.validation import validate
+
+    with pytest.raises(WeightsError, match="static batch axis"):
+        validate(suite_name="smoke", out_root=tmp_path / "runs", progress=False,
+                 predictors=[str(bm.centre_line_onnx(tmp_path / "bad.onnx", static_batch=3))])
+    assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").iterdir())
+
+
+def test_learned_gates_case_reports_an_added_predictor(centre_line):
+    from testbed.validation.cases import Case
+    from testbed.validation.cases.learned_gates import LearnedGatesCase
+
+    kind = LearnedGatesCase()
+    cases = kind.with_predictors([Case("learned-gates", "learned_gates", {"seed": 0})], [centre_line])
+    assert [c.id for c in cases] == ["learned-gates", "learned-gates-centre_line"]
+    record = {"id": cases[1].id, "result": kind.run(**cases[1].params)}
+    assert kind.gates(record) == []  # not gated
+    assert not all(g["passed"] for g in record["result"]["gates"])  # and it fails them on the data
+    sections = kind.sections([record])
+    assert sections and "centre_line" in sections[0].blocks[1].headers
+
+
+def test_query_study_times_an_added_predictor(centre_line):
+    from learned_contact.gates import held_out
+    from testbed.studies.query.methods.base import MethodOptions
+    from testbed.studies.query.methods.learned import build
+
+    ds = held_out(0, 20)["stacking"]
+    methods = build(ds, None, MethodOptions(extra_predictors=(centre_line,)))
+    mine = {m.name: m for m in methods if m.name.startswith("bench_centre_line")}
+    assert set(mine) == {"bench_centre_line_single", "bench_centre_line_batched"} and all(m.available for m in mine.values())
+    point, normal = mine["bench_centre_line_batched"].batched()
+    np.testing.assert_allclose(point, 0.5 * ds.p_AB, atol=1e-6)
+
+
+def test_compare_runs_an_onnx_predictor(tmp_path, centre_line):
+    out = tmp_path / "cmp"
+    proc = subprocess.run([sys.executable, "-m", "testbed.cli", "compare", "two_stack", "--predictor", centre_line,
+                           "--duration", "0.05", "--out", str(out), "--no-replay"], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    figures = json.loads((out / "compare.json").read_text())
+    assert figures["predictor"] == centre_line and figures["predictor_kind"] == "onnx"
