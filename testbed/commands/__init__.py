@@ -16,7 +16,7 @@ from __future__ import annotations
 import datetime
 import importlib
 
-COMMANDS = ("scenes", "run", "run_all", "view", "validate", "study", "train", "compare", "calibrate")
+COMMANDS = ("scenes", "run", "run_all", "view", "validate", "study", "train", "compare", "calibrate", "export_onnx")
 
 
 def load(module_name: str):
