@@ -152,6 +152,18 @@ def test_bad_name_or_path_raises_one_line_and_writes_nothing(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_export_from_weights_file(exported, tmp_path):
+    """A weights .npz (as load_predictor accepts) exports like its name; the metadata name
+    defaults to the file's stem."""
+    weights = load_predictor("paper", compiled=False).save(tmp_path / "my_paper.npz")
+    path = export_onnx(weights, tmp_path / "from_file.onnx")
+    assert {p.key: p.value for p in onnx.load(path).metadata_props}["name"] == "my_paper"
+    p, R, a, b = probe_poses(50, SEED + 8)
+    by_file, by_name = run_onnx(onnx_session(path), p, R, a, b), run_onnx(onnx_session(exported["paper"]), p, R, a, b)
+    for name, value in by_name.items():
+        np.testing.assert_array_equal(by_file[name], value)
+
+
 def test_export_leaves_no_temporary_file(exported):
     folder = exported["paper"].parent
     assert sorted(p.name for p in folder.iterdir()) == ["improved.onnx", "paper.onnx"]
