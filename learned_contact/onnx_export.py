@@ -1,0 +1,338 @@
+"""Exporting predictors to ONNX with the bench's contract, for a simulator to run.
+
+    from learned_contact.onnx_export import export_onnx, export_torch_model
+    export_onnx("improved", "improved.onnx")          # or "paper", or a weights .npz
+    export_torch_model(module, "my_model.onnx", supported_sizes=[[6.058, 2.438, 2.591]], name="mine")
+
+The contract (what `testbed bench` and the ONNX predictor source accept):
+- inputs `p_AB` (n, 3), `R_AB` (n, 3, 3), `size_A` (n, 3), `size_B` (n, 3), float32:
+  B's centre [m] and orientation in A's frame and both boxes' full extents [m]; the
+  first axis is dynamic (symbolic name "n");
+- outputs `point_A` (n, 3) [m] and `normal_A` (n, 3) (unit, from A into B), in A's
+  frame as learned_contact.interface.Predictor.predict returns them, float32; the
+  shipped exports add `depth` (n,) [m], the separating-axis penetration depth
+  (negative = separated), as Predictor.depth returns it;
+- metadata_props: `supported_sizes` (JSON list of [x, y, z] full extents [m]) and `name`.
+
+What the exported graphs hold (standard ONNX operators, opset 17, no custom ops):
+- "paper": the whole pipeline of paper_mlp.PaperPredictor (reflection into A's
+  positive octant, canonical position and roll-pitch-yaw, the 6-20-18-4 tanh MLP,
+  its spherical outputs decoded into the point where the ray leaves A and the unit
+  force direction, reflected back), computed in float32; `depth` (the 15-axis
+  separating-axis test) in float64.
+- "improved": the whole pipeline of predictor.ContactPredictor, computed in float64
+  inside the graph (inputs cast up, outputs cast down to float32): canonicalisation,
+  the 15-axis separating-axis test, the geometric prior (reference face, B's
+  incident face clipped by Sutherland-Hodgman with the fixed 9-vertex budget, the
+  depth-weighted centroid, the edge-edge midpoint where the patch is empty), the 91
+  features, the 64-64 SiLU MLP and the correction of the prior. Nothing is left for
+  the simulator to add. float64 inside, because the geometry branches (the least
+  overlap of 15 axes, the reference face, which clipped vertices are kept) and its
+  depth-weighted patch amplifies rounding on shallow contacts: the same graph in
+  float32 differs from the compiled path by up to 3.8e-4 m and 0.035 deg (800
+  held-out poses), in float64 by 2.4e-7 m and 2.2e-6 deg (the answers' float32 rounding).
+- Domain handling: both graphs reproduce outside="clip" (interface.DOMAIN_DEPTH,
+  CLIP_MARGIN): where the separating-axis depth lies outside DOMAIN_DEPTH the point
+  is clamped into A's box grown by CLIP_MARGIN (the paper's point lies on A's surface
+  and is never moved). A host that applies the same clip again changes nothing. The
+  graphs do NOT check their inputs: sizes outside `supported_sizes`, non-finite poses
+  or matrices that are not rotations are answered without complaint; the host (the
+  bench's loader, a simulator) checks them, as Predictor.predict does.
+
+Files are written to a temporary name beside the target and renamed on success.
+Importing this module imports neither onnx nor torch (they are imported on use).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from learned_contact.errors import WeightsError
+from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
+
+INPUTS = ("p_AB", "R_AB", "size_A", "size_B")
+INPUT_SHAPES = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}
+OUTPUTS = ("point_A", "normal_A", "depth")
+BATCH = "n"
+ONNX_PIN = "pip install onnx==1.23.1 onnxruntime==1.30.0"
+TORCH_PIN = "pip install torch==2.13.0 onnxscript==0.7.2"
+
+
+def _onnx():
+    try:
+        import onnx
+    except ImportError as exc:  # pragma: no cover - the test extra installs it
+        raise WeightsError(f"exporting to ONNX needs the onnx package: {ONNX_PIN}") from exc
+    return onnx
+
+
+def _inputs(g, dt):
+    """Casts the float32 contract inputs to dt; returns (p, R, hA, hB) names."""
+    from learned_contact.onnx_graph import onnx_type
+
+    names = []
+    for name in INPUTS:
+        names.append(name if np.dtype(dt) == np.float32 else g.op("Cast", name, to=onnx_type(dt)))
+    p, R, sA, sB = names
+    return p, R, g.mul(g.f(0.5), sA), g.mul(g.f(0.5), sB)
+
+
+def _outputs(g, point, normal, depth):
+    """Casts the answers to float32 under the contract's output names."""
+    for name, value in (("point_A", point), ("normal_A", normal), ("depth", g.sq(depth, [1]))):
+        g.op("Cast", value, to=1, out=name)
+
+
+def _clip_outside(g, point, depth, hA):
+    """outside='clip': the point clamped into A's box grown by CLIP_MARGIN where depth (n, 1)
+    lies outside DOMAIN_DEPTH."""
+    out = g.op("Or", g.op("Less", depth, g.f(DOMAIN_DEPTH[0])), g.op("Greater", depth, g.f(DOMAIN_DEPTH[1])))
+    bound = g.add(hA, g.f(CLIP_MARGIN))
+    return g.where(out, g.clip(point, g.op("Neg", bound), bound), point)
+
+
+def improved_graph(predictor):
+    """The Graph of predictor.ContactPredictor (see the module docstring), in float64."""
+    from learned_contact import onnx_graph as og
+    from learned_contact.encodings import LENGTH_SCALE
+    from learned_contact.predictor import POINT_STEP
+
+    g = og.Graph(np.float64)
+    p, R, hA, hB = _inputs(g, np.float64)
+    S, p_c, R_c = og.canonicalise(g, p, R)
+    point_est, normal_est, depth, k, weight, overlap = og.patch_estimate(g, p_c, R_c, hA, hB)
+    # features (encodings.features), in its block order
+    s = g.f(LENGTH_SCALE)
+    RT = og.transpose(g, R_c)
+    outer = g.reshape(g.op("Mul", g.unsq(RT, [3]), g.unsq(RT, [2])), [0, 3, 9])
+    outer = g.reshape(g.take(outer, [0, 1, 2, 4, 5, 8], 2), [0, 18])
+    corners_B, depth_B, depth_A = og.corners_depths(g, p_c, R_c, hA, hB)
+    log_w = g.div(g.op("Log", g.add(weight, g.f(1e-9))), g.f(np.log(10.0)))
+    edge = g.op("Cast", g.op("GreaterOrEqual", k, g.i(6)), to=og.onnx_type(np.float64))
+    ten = g.f(10.0)
+    x = g.op("Concat", g.mul(p_c, s), g.mul(hA, s), g.mul(hB, s), outer,
+             g.mul(g.op("Min", overlap, g.f(0.5)), ten), normal_est, g.mul(point_est, s), log_w,
+             g.mul(depth, g.f(30.0)), edge, g.mul(corners_B, s), g.mul(g.clip(depth_B, g.f(-0.5), g.f(0.5)), ten),
+             g.mul(g.clip(depth_A, g.f(-0.5), g.f(0.5)), ten), axis=1)
+    y = og.mlp(g, x, predictor.mlp)
+    point = g.mul(S, g.add(point_est, g.mul(g.f(POINT_STEP), g.take(y, [0, 1, 2], 1))))
+    normal = g.mul(S, g.add(normal_est, g.take(y, [3, 4, 5], 1)))
+    length = g.op("Sqrt", g.rsum(g.mul(normal, normal), 1, keep=1))
+    ok = g.op("And", g.op("Greater", length, g.f(1e-9)), g.op("Not", g.op("IsInf", length)))
+    normal = g.where(ok, g.div(normal, g.where(ok, length, g.f(1.0))), g.mul(S, normal_est))
+    _outputs(g, _clip_outside(g, point, depth, hA), normal, depth)
+    return g
+
+
+def paper_graph(predictor):
+    """The Graph of paper_mlp.PaperPredictor (see the module docstring): the pipeline in
+    float32 (onnxruntime has no float64 Atan/Asin), the separating-axis depth in float64."""
+    from learned_contact import onnx_graph as og
+    from learned_contact.encodings import PAPER_FRAME
+
+    g = og.Graph(np.float32)
+    p, R, hA, _ = _inputs(g, np.float32)
+    S, p_c, R_c = og.canonicalise(g, p, R)
+    rows = [g.sq(g.take(R_c, [r], 1), [1]) for r in range(3)]
+    det = g.rsum(g.mul(rows[0], og.cross(g, rows[1], rows[2])), 1, keep=1)
+    flip = g.sign_ge0(det)  # det is +-1: its sign is never in doubt
+    Rij = lambda i, j: g.take(rows[i], [j], 1)
+    roll = og.atan2(g, Rij(2, 1), g.mul(Rij(2, 2), flip))
+    pitch = g.op("Asin", g.clip(g.op("Neg", Rij(2, 0)), g.f(-1.0), g.f(1.0)))
+    yaw = og.atan2(g, Rij(1, 0), Rij(0, 0))
+    y = og.mlp(g, g.op("Concat", p_c, roll, pitch, yaw, axis=1), predictor.mlp)
+
+    def direction(az, el):  # S * from_spherical([az, el]) (n, 3)
+        ce = g.op("Cos", el)
+        w = g.op("Concat", g.mul(ce, g.op("Cos", az)), g.mul(ce, g.op("Sin", az)), g.op("Sin", el), axis=1)
+        return g.mul(S, g.op("MatMul", w, g.f(PAPER_FRAME)))
+
+    d = direction(g.take(y, [0], 1), g.take(y, [1], 1))
+    reach = g.rmax(g.div(g.op("Abs", d), hA), 1, keep=1)
+    point = g.div(d, reach)
+    f = direction(g.take(y, [2], 1), g.take(y, [3], 1))
+    normal = g.div(f, g.op("Sqrt", g.rsum(g.mul(f, f), 1, keep=1)))
+    # the separating-axis depth, in float64 (the clip below never moves a point on A's surface)
+    g.dt = np.dtype(np.float64)
+    depth = og.sat(g, *_inputs(g, np.float64))[3]
+    g.dt = np.dtype(np.float32)
+    depth32 = g.op("Cast", depth, to=og.onnx_type(np.float32))
+    point = _clip_outside(g, point, depth32, hA)
+    _outputs(g, point, normal, depth)
+    return g
+
+
+def model_proto(g, *, supported_sizes, name: str):
+    """The ModelProto of Graph g with the contract's inputs, outputs and metadata."""
+    onnx = _onnx()
+    from onnx import TensorProto, helper
+
+    from learned_contact.onnx_graph import IR_VERSION, OPSET
+
+    inputs = [helper.make_tensor_value_info(k, TensorProto.FLOAT, [BATCH, *INPUT_SHAPES[k]]) for k in INPUTS]
+    outputs = [helper.make_tensor_value_info("point_A", TensorProto.FLOAT, [BATCH, 3]),
+               helper.make_tensor_value_info("normal_A", TensorProto.FLOAT, [BATCH, 3]),
+               helper.make_tensor_value_info("depth", TensorProto.FLOAT, [BATCH])]
+    graph = helper.make_graph(g.nodes, name, inputs, outputs, g.initializers)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
+                              producer_name="learned_contact.onnx_export")
+    model.ir_version = IR_VERSION
+    set_metadata(model, supported_sizes=supported_sizes, name=name)
+    onnx.checker.check_model(model, full_check=True)
+    return model
+
+
+def set_metadata(model, *, supported_sizes, name: str) -> None:
+    """Sets the contract's metadata_props (supported_sizes as JSON [[x, y, z], ...] [m], name)."""
+    sizes = np.asarray(supported_sizes, dtype=float).reshape(-1, 3)
+    props = {"supported_sizes": json.dumps(sizes.tolist()), "name": str(name)}
+    keep = [(p.key, p.value) for p in model.metadata_props if p.key not in props]
+    del model.metadata_props[:]
+    for key, value in [*keep, *props.items()]:
+        entry = model.metadata_props.add()
+        entry.key, entry.value = key, value
+
+
+def write_atomic(model, out_path) -> Path:
+    """Saves a ModelProto to out_path via a temporary file beside it (renamed on success)."""
+    out_path = Path(out_path)
+    try:
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise WeightsError(f"cannot write ONNX file {out_path}: {exc.strerror or exc}") from exc
+    tmp = out_path.with_name(f".{out_path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_bytes(model.SerializeToString())
+        os.replace(tmp, out_path)
+    except OSError as exc:
+        raise WeightsError(f"cannot write ONNX file {out_path}: {exc.strerror or exc}; expected a writable file "
+                           "path") from exc
+    finally:
+        tmp.unlink(missing_ok=True)
+    return out_path
+
+
+def export_onnx(name_or_path, out_path, *, name=None) -> Path:
+    """Exports a shipped predictor ("improved", "paper") or a weights .npz (as
+    learned_contact.load_predictor accepts) to an ONNX file with the contract above.
+    name: the metadata `name` (default: the predictor's name or the file's stem).
+    Returns the path written. Raises WeightsError (one line naming the file) for a
+    name or path that does not load."""
+    from learned_contact.loading import load_predictor
+
+    predictor = load_predictor(name_or_path, compiled=False)
+    if name is None:
+        name = name_or_path if isinstance(name_or_path, str) and not str(name_or_path).endswith(".npz") \
+            else Path(name_or_path).stem
+    graph = improved_graph(predictor) if predictor.kind == "improved" else paper_graph(predictor)
+    return write_atomic(model_proto(graph, supported_sizes=predictor.supported_sizes, name=str(name)), out_path)
+
+
+def export_torch_model(module, out_path, *, supported_sizes, name: str) -> Path:
+    """Exports a torch.nn.Module whose forward is (p_AB (n, 3), R_AB (n, 3, 3), size_A
+    (n, 3), size_B (n, 3)) -> (point_A (n, 3) [m], normal_A (n, 3) unit A->B), all in
+    A's frame, float32, to the ONNX contract: torch.onnx.export (the torch.export-based
+    exporter, opset 18) with the contract's input and output names and one dynamic
+    first axis "n", then the metadata (supported_sizes (k, 3) full extents [m], name)
+    added with the onnx package. Written via a temporary file; returns the path. Needs
+    torch and onnxscript (`pip install torch==2.13.0 onnxscript==0.7.2`) and onnx."""
+    try:
+        import onnxscript  # noqa: F401  (torch.onnx.export's dependency)
+        import torch
+    except ImportError as exc:
+        raise WeightsError(f"export_torch_model needs PyTorch and onnxscript ({exc.name} is missing): "
+                           f"{TORCH_PIN}") from exc
+    _onnx()
+    sizes = np.asarray(supported_sizes, dtype=float).reshape(-1, 3)
+    size = torch.tensor(sizes[[0, 0, 0]], dtype=torch.float32)
+    example = (torch.zeros(3, 3), torch.eye(3).expand(3, 3, 3).contiguous(), size, size.clone())
+    batch = torch.export.Dim(BATCH, min=1)
+    module.eval()
+    program = torch.onnx.export(module, example, input_names=list(INPUTS), output_names=["point_A", "normal_A"],
+                                dynamic_shapes=tuple({0: batch} for _ in INPUTS), opset_version=18, dynamo=True,
+                                external_data=False, verbose=False)
+    model = program.model_proto
+    _name_batch_axis(model)
+    set_metadata(model, supported_sizes=sizes, name=name)
+    return write_atomic(model, out_path)
+
+
+def _name_batch_axis(model) -> None:
+    """Renames the exporter's symbol for the first axis of p_AB (e.g. "s0") to BATCH
+    wherever it appears in the graph's declared shapes."""
+    first = model.graph.input[0].type.tensor_type.shape.dim[0]
+    old = first.dim_param
+    if not old:
+        raise WeightsError("torch.onnx.export gave p_AB a static first axis; expected a dynamic batch axis")
+    for value in [*model.graph.input, *model.graph.output, *model.graph.value_info]:
+        for dim in value.type.tensor_type.shape.dim:
+            if dim.dim_param == old:
+                dim.dim_param = BATCH
+
+
+# ------------------------------------------------------------------ checking an export
+def probe_poses(n: int, seed: int, distribution: str = "general", **ranges):
+    """(p_AB (n, 3), R_AB (n, 3, 3), size_A (n, 3), size_B (n, 3)) float64: the gates'
+    held-out pose proposals (learned_contact.sampling.sample, as gates.held_out draws
+    them) placed at their target penetration depth along their direction by bisecting
+    the separating-axis depth (exact for overlapping boxes; no Drake labels needed).
+    ranges: sample's max_depth [m] / max_tilt_deg (gates.OUTSIDE_RANGES for the
+    "outside" set)."""
+    from learned_contact.geometry import sat_normal
+    from learned_contact.sampling import sample
+
+    props = sample(distribution, n, seed, **ranges)
+    size_A, size_B = props.sizes()
+    lo, hi = np.zeros(n), np.full(n, 30.0)  # [m] along direction: lo overlapping, hi separated
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        deep = sat_normal(props.base + mid[:, None] * props.direction, props.R_AB, 0.5 * size_A,
+                          0.5 * size_B)[1] > props.depth
+        lo, hi = np.where(deep, mid, lo), np.where(deep, hi, mid)
+    return props.base + hi[:, None] * props.direction, props.R_AB, size_A, size_B
+
+
+def onnx_session(path):
+    """An onnxruntime InferenceSession (CPU, one thread) of the file at path."""
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.intra_op_num_threads, opts.inter_op_num_threads = 1, 1
+    return ort.InferenceSession(str(path), opts, providers=["CPUExecutionProvider"])
+
+
+def run_onnx(session, p_AB, R_AB, size_A, size_B) -> dict:
+    """{output name: array} of an ONNX session on poses converted to float32."""
+    feed = {k: np.ascontiguousarray(v, dtype=np.float32) for k, v in zip(INPUTS, (p_AB, R_AB, size_A, size_B))}
+    names = [o.name for o in session.get_outputs()]
+    return dict(zip(names, session.run(names, feed)))
+
+
+def agreement(path, name_or_path, *, n: int = 400, seed: int = 12345) -> dict:
+    """Largest differences between the ONNX file at path and the compiled predictor
+    name_or_path on n held-out general and n stacking poses (seed), both given the
+    same float32-rounded poses: {"point_m", "normal_deg", "depth_m", "n"}."""
+    from learned_contact.loading import load_predictor
+
+    pred = load_predictor(name_or_path)
+    session = onnx_session(path)
+    worst = {"point_m": 0.0, "normal_deg": 0.0, "depth_m": 0.0, "n": 0}
+    for k, dist in enumerate(("general", "stacking")):
+        poses = [np.asarray(a, dtype=np.float32).astype(float) for a in probe_poses(n, seed + k, dist)]
+        got = run_onnx(session, *poses)
+        point, normal = pred.predict(poses[0], poses[1], size_A=poses[2], size_B=poses[3])
+        # the angle from atan2(|a x b|, a . b): arccos of a dot product near 1 would read the float32
+        # rounding of the normal (~6e-8) as ~0.02 deg
+        a = got["normal_A"].astype(float)
+        angle = np.arctan2(np.linalg.norm(np.cross(a, normal), axis=1), np.sum(a * normal, axis=1))
+        worst["point_m"] = max(worst["point_m"], float(np.abs(got["point_A"] - point).max()))
+        worst["normal_deg"] = max(worst["normal_deg"], float(np.degrees(angle).max()))
+        if "depth" in got:
+            depth = pred.depth(poses[0], poses[1], size_A=poses[2], size_B=poses[3])
+            worst["depth_m"] = max(worst["depth_m"], float(np.abs(got["depth"] - depth).max()))
+        worst["n"] += n
+    return worst

@@ -1,0 +1,350 @@
+"""Graph-building helpers for learned_contact.onnx_export: a small node/initializer
+collector over the `onnx` package's helper API, and the batched box geometry of
+learned_contact.geometry / encodings written in standard ONNX operators (opset 17).
+
+Every function here takes a `Graph` and tensor names and returns tensor names; the
+first axis of every tensor is the batch (n, dynamic). Shapes, frames and units follow
+learned_contact.geometry: p (n, 3) [m] B's centre in A, R (n, 3, 3) B's axes in A
+(columns), hA, hB (n, 3) half extents [m]. `dt` is the numpy dtype the geometry is
+computed in (float64 for the improved predictor, so that every branch of the geometry
+(argmin of the 15 overlaps, the reference face, the clipping) is taken as in the
+compiled path; onnxruntime's CPU provider has float64 kernels for every operator used
+here). The operations follow learned_contact.compiled.geometry step by step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from testbed.box_geometry import CORNER_SIGNS
+
+OPSET = 17
+IR_VERSION = 8  # onnx 1.23 writes IR 11 by default; IR 8 (opset <= 17) loads in onnxruntime >= 1.12
+I64 = np.int64
+MAX_VERTS = 9  # learned_contact.geometry._MAX_VERTS
+EDGE_BIAS = 1e-3  # [m] learned_contact.compiled.geometry.EDGE_BIAS
+_NEXT = np.array([1, 2, 0], dtype=I64)  # (m + 1) % 3
+_NEXT2 = np.array([2, 0, 1], dtype=I64)  # (m + 2) % 3
+
+
+class Graph:
+    """Collects nodes and initializers; `op` adds one node and returns its output name."""
+
+    def __init__(self, dt=np.float64):
+        self.dt = np.dtype(dt)
+        self.nodes, self.initializers, self._consts, self._n = [], [], {}, 0
+
+    def name(self, hint: str) -> str:
+        self._n += 1
+        return f"{hint}_{self._n}"
+
+    def const(self, value, dtype=None) -> str:
+        """An initializer holding `value` (in self.dt unless dtype is given); shared by value."""
+        from onnx import numpy_helper
+
+        arr = np.asarray(value, dtype=dtype or self.dt)
+        key = (arr.dtype.str, arr.shape, arr.tobytes())
+        if key not in self._consts:
+            name = self.name("c")
+            self.initializers.append(numpy_helper.from_array(arr, name))
+            self._consts[key] = name
+        return self._consts[key]
+
+    def op(self, op_type: str, *inputs, n_out: int = 1, out=None, **attrs):
+        from onnx import helper
+
+        outs = [out] if out is not None else [self.name(op_type.lower()) for _ in range(n_out)]
+        self.nodes.append(helper.make_node(op_type, list(inputs), outs, **attrs))
+        return outs[0] if n_out == 1 else outs
+
+    # ---------------------------------------------------------------- shorthands
+    def f(self, value) -> str:
+        return self.const(value)
+
+    def i(self, value) -> str:
+        return self.const(value, I64)
+
+    def add(self, a, b):
+        return self.op("Add", a, b)
+
+    def sub(self, a, b):
+        return self.op("Sub", a, b)
+
+    def mul(self, a, b):
+        return self.op("Mul", a, b)
+
+    def div(self, a, b):
+        return self.op("Div", a, b)
+
+    def where(self, c, a, b):
+        return self.op("Where", c, a, b)
+
+    def sign_ge0(self, x):
+        """+1 where x >= 0, else -1 (np.where(x >= 0, 1, -1))."""
+        return self.where(self.op("Less", x, self.f(0.0)), self.f(-1.0), self.f(1.0))
+
+    def take(self, x, idx, axis):
+        """x[..., idx, ...] along `axis` with a constant index list (or int: the axis drops)."""
+        return self.op("Gather", x, self.i(idx), axis=axis)
+
+    def pick(self, x, k, axis):
+        """x gathered along `axis` with a per-row index tensor k broadcast to x's other
+        axes (np.take_along_axis); k has x's rank with size 1 on `axis`."""
+        return self.op("GatherElements", x, k, axis=axis)
+
+    def unsq(self, x, axes):
+        return self.op("Unsqueeze", x, self.i(axes))
+
+    def sq(self, x, axes):
+        return self.op("Squeeze", x, self.i(axes))
+
+    def reshape(self, x, shape):
+        return self.op("Reshape", x, self.i(shape))
+
+    def rsum(self, x, axis, keep=0):
+        return self.op("ReduceSum", x, self.i([axis]), keepdims=keep)
+
+    def rmin(self, x, axis, keep=0):
+        return self.op("ReduceMin", x, axes=[axis], keepdims=keep)
+
+    def rmax(self, x, axis, keep=0):
+        return self.op("ReduceMax", x, axes=[axis], keepdims=keep)
+
+    def clip(self, x, lo, hi):
+        return self.op("Max", self.op("Min", x, hi), lo)
+
+    def onehot(self, k, depth: int, dtype=bool):
+        """(n, depth) one-hot of k (n, 1) int64, as bool or self.dt."""
+        hit = self.op("Equal", k, self.i(np.arange(depth)[None, :]))
+        return hit if dtype is bool else self.op("Cast", hit, to=_onnx_type(self.dt))
+
+    def vec_at(self, x3, k):
+        """(n, 1) x3[n, k[n]] for x3 (n, 3) and k (n, 1) int64."""
+        return self.pick(x3, k, 1)
+
+    def row_at(self, M, k):
+        """(n, 3) M[n, k[n], :] for M (n, 3, 3) and k (n, 1) int64."""
+        kk = self.op("Expand", self.unsq(k, [2]), self.i([1, 1, 3]))
+        return self.sq(self.pick(M, kk, 1), [1])
+
+
+def _onnx_type(dt) -> int:
+    from onnx import TensorProto
+
+    return {np.dtype(np.float32): TensorProto.FLOAT, np.dtype(np.float64): TensorProto.DOUBLE}[np.dtype(dt)]
+
+
+def onnx_type(dt) -> int:
+    """The TensorProto element type of a numpy float dtype."""
+    return _onnx_type(dt)
+
+
+def cross(g: Graph, a, b):
+    """a x b along the last axis (size 3)."""
+    return g.sub(g.mul(g.take(a, [1, 2, 0], -1), g.take(b, [2, 0, 1], -1)),
+                 g.mul(g.take(a, [2, 0, 1], -1), g.take(b, [1, 2, 0], -1)))
+
+
+def matvec(g: Graph, M, v):
+    """(n, r) M @ v for M (n, r, 3), v (n, 3)."""
+    return g.sq(g.op("MatMul", M, g.unsq(v, [2])), [2])
+
+
+def transpose(g: Graph, M):
+    return g.op("Transpose", M, perm=[0, 2, 1])
+
+
+def canonicalise(g: Graph, p, R):
+    """encodings.canonicalise: (S (n, 3) signs, p_c (n, 3) >= 0 [m], R_c (n, 3, 3))."""
+    S = g.sign_ge0(p)
+    RS = g.mul(g.unsq(S, [2]), R)
+    col = g.sign_ge0(g.rsum(RS, 1))
+    return S, g.mul(S, p), g.mul(RS, g.unsq(col, [1]))
+
+
+def sat(g: Graph, p, R, hA, hB):
+    """geometry.sat_overlap + sat_normal: (overlap (n, 15) [m] (+inf on degenerate axes),
+    axes (n, 15, 3), normal (n, 3) unit A->B, depth (n, 1) [m], k (n, 1) int64 axis index)."""
+    RT = transpose(g, R)  # rows: B's axes in A
+    # e_i x b_j for i, j in 0..2 (k = 6 + 3 i + j): b_j @ K with K[:, 3 i + c] = (e_i x .)_c
+    K = np.zeros((3, 9))
+    for i in range(3):
+        for c in range(3):
+            K[:, 3 * i + c] = np.cross(np.eye(3)[i], np.eye(3))[:, c]
+    C = g.reshape(g.op("MatMul", RT, g.f(K)), [0, 3, 3, 3])  # [n, j, i, c]
+    C = g.reshape(g.op("Transpose", C, perm=[0, 2, 1, 3]), [0, 9, 3])
+    norm = g.op("Sqrt", g.rsum(g.mul(C, C), 2, keep=1))
+    C = g.where(g.op("Greater", norm, g.f(1e-6)), g.div(C, g.op("Max", norm, g.f(1e-12))), g.f(0.0))
+    eye = g.op("Expand", g.f(np.eye(3)[None]), g.op("Shape", RT))
+    axes = g.op("Concat", eye, RT, C, axis=1)  # (n, 15, 3)
+    rA = matvec(g, g.op("Abs", axes), hA)
+    rB = matvec(g, g.op("Abs", g.op("MatMul", axes, R)), hB)
+    dist = g.op("Abs", matvec(g, axes, p))
+    overlap = g.sub(g.add(rA, rB), dist)
+    degenerate = g.op("Less", g.rsum(g.mul(axes, axes), 2), g.f(0.25))
+    overlap = g.where(degenerate, g.f(np.inf), overlap)
+    k = g.op("ArgMin", g.add(overlap, g.f(np.r_[np.zeros(6), np.full(9, EDGE_BIAS)])), axis=1, keepdims=1)
+    depth = g.pick(overlap, k, 1)
+    normal = g.row_at(axes, k)
+    dot = g.rsum(g.mul(normal, p), 1, keep=1)
+    normal = g.mul(normal, g.sign_ge0(dot))
+    return overlap, axes, normal, depth, k
+
+
+def _clip_poly(g: Graph, poly, count, ax, sign, lim):
+    """Sutherland-Hodgman with a fixed vertex budget (geometry._clip): poly (n, V, 3),
+    count (n, 1) int64, clipped to sign * x[ax] <= lim (ax (n, 1) int64, sign and lim
+    (n, 1)). Returns (poly (n, V, 3), count (n, 1))."""
+    V = MAX_VERTS
+    idx = g.i(np.arange(V)[None, :])
+    valid = g.op("Less", idx, count)
+    nxt = g.where(g.op("Less", g.i(np.arange(1, V + 1)[None, :]), count), g.i(np.arange(1, V + 1)[None, :]), g.i(0))
+    axv = g.op("Expand", g.unsq(ax, [2]), g.i([1, V, 1]))
+    s = g.sub(g.mul(sign, g.sq(g.pick(poly, axv, 2), [2])), lim)  # (n, V)
+    s_next = g.pick(s, nxt, 1)
+    v_next = g.pick(poly, g.op("Expand", g.unsq(nxt, [2]), g.i([1, 1, 3])), 1)
+    inside, inside_next = g.op("LessOrEqual", s, g.f(0.0)), g.op("LessOrEqual", s_next, g.f(0.0))
+    diff = g.sub(s, s_next)
+    denom = g.where(g.op("Equal", diff, g.f(0.0)), g.f(1.0), diff)
+    crossing = g.add(poly, g.mul(g.unsq(g.div(s, denom), [2]), g.sub(v_next, poly)))
+    cand = g.reshape(g.op("Concat", g.unsq(poly, [2]), g.unsq(crossing, [2]), axis=2), [0, 2 * V, 3])
+    keep = g.reshape(g.op("Concat", g.unsq(g.op("And", valid, inside), [2]),
+                          g.unsq(g.op("And", valid, g.op("Xor", inside, inside_next)), [2]), axis=2), [0, 2 * V])
+    keep_i = g.op("Cast", keep, to=7)  # int64
+    pos = g.op("Min", g.sub(g.op("CumSum", keep_i, g.i(1)), g.i(1)), g.i(V - 1))
+    # out[r, pos[r, c]] = cand[r, c] where keep: a one-hot (n, V, 2V) matrix product (at most
+    # V candidates are kept, each at its own position, so every sum has one non-zero term)
+    hit = g.op("And", g.op("Equal", g.unsq(pos, [1]), g.i(np.arange(V)[None, :, None])), g.unsq(keep, [1]))
+    out = g.op("MatMul", g.op("Cast", hit, to=_onnx_type(g.dt)), cand)
+    return out, g.op("Min", g.rsum(keep_i, 1, keep=1), g.i(V))
+
+
+def _weighted_centroid(g: Graph, poly, count, depth):
+    """geometry._weighted_centroid: (centroid (n, 3), integral (n, 1) [m^3])."""
+    V = MAX_VERTS
+    v0, v1, v2 = g.take(poly, [0], 1), g.take(poly, list(range(1, V - 1)), 1), g.take(poly, list(range(2, V)), 1)
+    d0, d1, d2 = g.take(depth, [0], 1), g.take(depth, list(range(1, V - 1)), 1), g.take(depth, list(range(2, V)), 1)
+    tri_ok = g.op("Cast", g.op("Less", g.i(np.arange(2, V)[None, :]), count), to=_onnx_type(g.dt))
+    c = cross(g, g.sub(v1, v0), g.sub(v2, v0))
+    area = g.mul(g.mul(g.f(0.5), g.op("Sqrt", g.rsum(g.mul(c, c), 2))), tri_ok)  # (n, V - 2)
+    dsum = g.add(g.add(d0, d1), d2)
+    mass = g.div(g.mul(area, dsum), g.f(3.0))
+    w0, w1, w2 = g.add(dsum, d0), g.add(dsum, d1), g.add(dsum, d2)
+    u = g.unsq
+    first = g.mul(u(g.div(area, g.f(12.0)), [2]),
+                  g.add(g.add(g.mul(u(w0, [2]), v0), g.mul(u(w1, [2]), v1)), g.mul(u(w2, [2]), v2)))
+    total = g.rsum(mass, 1, keep=1)
+    valid = g.op("Cast", g.op("Less", g.i(np.arange(V)[None, :]), count), to=_onnx_type(g.dt))
+    cnt = g.op("Max", g.op("Cast", count, to=_onnx_type(g.dt)), g.f(1.0))
+    mean = g.div(g.rsum(g.mul(poly, u(valid, [2])), 1), cnt)
+    weighted = g.div(g.rsum(first, 1), g.op("Max", total, g.f(1e-300)))
+    return g.where(g.op("Greater", total, g.f(1e-12)), weighted, mean), total
+
+
+def face_patch(g: Graph, p, R, hA, hB, axis):
+    """geometry._face_patch: B's incident face clipped against A's face normal to
+    axis (n, 1) int64. Returns (point (n, 3) in A [m], weight (n, 1) [m^3])."""
+    sigma = g.sign_ge0(g.vec_at(p, axis))
+    along = g.mul(g.row_at(R, axis), sigma)
+    m = g.op("ArgMax", g.op("Abs", along), axis=1, keepdims=1)
+    s_m = g.where(g.op("Greater", g.vec_at(along, m), g.f(0.0)), g.f(-1.0), g.f(1.0))
+    u_ax, v_ax = g.op("Gather", g.i(_NEXT), m), g.op("Gather", g.i(_NEXT2), m)
+    RT = transpose(g, R)
+    centre = g.add(p, g.mul(g.mul(s_m, g.vec_at(hB, m)), g.row_at(RT, m)))
+    du = g.mul(g.vec_at(hB, u_ax), g.row_at(RT, u_ax))
+    dv = g.mul(g.vec_at(hB, v_ax), g.row_at(RT, v_ax))
+    corners = [g.add(g.add(centre, du), dv), g.add(g.sub(centre, du), dv),
+               g.sub(g.sub(centre, du), dv), g.sub(g.add(centre, du), dv)]
+    zeros = g.op("Expand", g.f(np.zeros((1, MAX_VERTS - 4, 3))), g.op("Concat", g.op("Shape", axis), g.i([3]), axis=0))
+    poly = g.op("Concat", *[g.unsq(c, [1]) for c in corners], zeros, axis=1)
+    count = g.op("Expand", g.i([[4]]), g.op("Shape", axis))
+    for k in (1, 2):
+        ax = g.op("Gather", g.i(np.array([(a + k) % 3 for a in range(3)])), axis)
+        for sg in (1.0, -1.0):
+            poly, count = _clip_poly(g, poly, count, ax, g.f(sg), g.vec_at(hA, ax))
+    top = g.vec_at(hA, axis)
+    poly, count = _clip_poly(g, poly, count, axis, sigma, top)
+    axv = g.op("Expand", g.unsq(axis, [2]), g.i([1, MAX_VERTS, 1]))
+    depth = g.op("Max", g.sub(top, g.mul(sigma, g.sq(g.pick(poly, axv, 2), [2]))), g.f(0.0))
+    centroid, weight = _weighted_centroid(g, poly, count, depth)
+    moved = g.mul(g.f(0.5), g.add(g.vec_at(centroid, axis), g.mul(sigma, top)))
+    return g.where(g.onehot(axis, 3), moved, centroid), weight
+
+
+def edge_patch(g: Graph, p, R, hA, hB, k, normal):
+    """geometry._edge_patch for edge axis k (n, 1) int64 (6..14; smaller k are clamped
+    to 6, for rows whose answer is discarded). Returns (n, 3) in A [m]."""
+    kk = g.sub(g.op("Max", k, g.i(6)), g.i(6))
+    i, j = g.op("Div", kk, g.i(3)), g.op("Mod", kk, g.i(3))
+    eA_b, eB_b = g.onehot(i, 3), g.onehot(j, 3)
+    cA = g.where(eA_b, g.f(0.0), g.mul(g.sign_ge0(normal), hA))
+    nB = g.sq(g.op("MatMul", g.unsq(normal, [1]), R), [1])
+    sB = g.where(eB_b, g.f(0.0), g.mul(g.where(g.op("Less", nB, g.f(0.0)), g.f(1.0), g.f(-1.0)), hB))
+    cB = g.add(p, matvec(g, R, sB))
+    eB = g.row_at(transpose(g, R), j)
+    b = g.vec_at(eB, i)
+    w = g.sub(cA, cB)
+    d, e = g.vec_at(w, i), g.rsum(g.mul(eB, w), 1, keep=1)
+    den = g.op("Max", g.sub(g.f(1.0), g.mul(b, b)), g.f(1e-9))
+    hAi, hBj = g.vec_at(hA, i), g.vec_at(hB, j)
+    s = g.clip(g.div(g.sub(g.mul(b, e), d), den), g.op("Neg", hAi), hAi)
+    t = g.clip(g.div(g.sub(e, g.mul(b, d)), den), g.op("Neg", hBj), hBj)
+    eA = g.op("Cast", eA_b, to=_onnx_type(g.dt))
+    return g.mul(g.f(0.5), g.add(g.add(g.add(cA, g.mul(s, eA)), cB), g.mul(t, eB)))
+
+
+def patch_estimate(g: Graph, p, R, hA, hB):
+    """geometry.patch_estimate: (point (n, 3) [m], normal (n, 3), depth (n, 1) [m],
+    k (n, 1) int64, weight (n, 1) [m^3], overlap (n, 15) [m])."""
+    overlap, _, normal, depth, k = sat(g, p, R, hA, hB)
+    face = g.op("ArgMin", g.take(overlap, list(range(6)), 1), axis=1, keepdims=1)
+    on_A = g.op("Less", face, g.i(3))
+    f3 = g.op("Mod", face, g.i(3))
+    point_a, weight_a = face_patch(g, p, R, hA, hB, f3)
+    R_BA = transpose(g, R)
+    p_BA = g.op("Neg", matvec(g, R_BA, p))
+    q, weight_b = face_patch(g, p_BA, R_BA, hB, hA, f3)
+    point = g.where(on_A, point_a, g.add(p, matvec(g, R, q)))
+    weight = g.where(on_A, weight_a, weight_b)
+    empty = g.op("And", g.op("LessOrEqual", weight, g.f(1e-12)), g.op("GreaterOrEqual", k, g.i(6)))
+    point = g.where(empty, edge_patch(g, p, R, hA, hB, k, normal), point)
+    return point, normal, depth, k, weight, overlap
+
+
+def corners_depths(g: Graph, p_c, R_c, hA, hB):
+    """encodings.features' corner blocks: (corners_B (n, 24) [m], depth_B (n, 8), depth_A (n, 8) [m])."""
+    signs = g.f(CORNER_SIGNS[None])
+    corners_B = g.add(g.unsq(p_c, [1]), g.op("MatMul", g.mul(signs, g.unsq(hB, [1])), transpose(g, R_c)))
+    depth_B = g.rmin(g.sub(g.unsq(hA, [1]), g.op("Abs", corners_B)), 2)
+    in_B = g.op("MatMul", g.sub(g.mul(signs, g.unsq(hA, [1])), g.unsq(p_c, [1])), R_c)
+    depth_A = g.rmin(g.sub(g.unsq(hB, [1]), g.op("Abs", in_B)), 2)
+    return g.reshape(corners_B, [0, 24]), depth_B, depth_A
+
+
+def mlp(g: Graph, x, net):
+    """learned_contact.mlp.NumpyMLP on x (n, in): standardise, hidden layers, linear output."""
+    h = g.div(g.sub(x, g.f(net.x_mean[None])), g.f(net.x_std[None]))
+    last = len(net.weights) - 1
+    for i, (W, b) in enumerate(zip(net.weights, net.biases)):
+        h = g.add(g.op("MatMul", h, g.f(W)), g.f(b[None]))
+        if i < last:
+            if net.activation == "tanh":
+                h = g.op("Tanh", h)
+            elif net.activation == "relu":
+                h = g.op("Relu", h)
+            else:  # silu, written as mlp._silu: x * (0.5 + 0.5 tanh(x / 2))
+                h = g.mul(h, g.add(g.f(0.5), g.mul(g.f(0.5), g.op("Tanh", g.mul(g.f(0.5), h)))))
+    return h
+
+
+def atan2(g: Graph, y, x):
+    """np.arctan2(y, x) from Atan and Where (ONNX has no Atan2): atan(y/x) (+-pi for
+    x < 0) where |x| >= |y|, else +-pi/2 - atan(x/y)."""
+    zero = g.f(0.0)
+    wide = g.op("GreaterOrEqual", g.op("Abs", x), g.op("Abs", y))
+    safe_x = g.where(g.op("Equal", x, zero), g.f(1.0), x)
+    safe_y = g.where(g.op("Equal", y, zero), g.f(1.0), y)
+    a = g.op("Atan", g.div(y, safe_x))
+    a = g.add(a, g.where(g.op("Less", x, zero), g.mul(g.sign_ge0(y), g.f(np.pi)), zero))
+    b = g.sub(g.mul(g.sign_ge0(y), g.f(np.pi / 2)), g.op("Atan", g.div(x, safe_y)))
+    return g.where(wide, a, b)

@@ -1,0 +1,231 @@
+"""ONNX export of the shipped predictors (learned_contact.onnx_export), the PyTorch
+export helper and `testbed export-onnx`: the exported files, run with onnxruntime on
+the CPU, agree with the compiled predictors on held-out poses and follow the contract
+(names, shapes, dynamic batch axis, metadata)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+onnx = pytest.importorskip("onnx")
+pytest.importorskip("onnxruntime")
+
+from learned_contact import WeightsError, load_predictor
+from learned_contact.gates import OUTSIDE_RANGES
+from learned_contact.onnx_export import (
+    export_onnx,
+    export_torch_model,
+    onnx_session,
+    probe_poses,
+    run_onnx,
+)
+
+KINDS = ("paper", "improved")
+SEED = 31337  # held-out: the gates use 10 * seed + 5..7 for small seeds, training + 1, + 2
+# Largest allowed difference to the compiled predictor given the same (float32-rounded) poses:
+# - improved: the graph computes in float64 and casts its answers to float32, so only that
+#   rounding remains: half a float32 ulp of a coordinate below 8 m is 2.4e-7 m (measured
+#   2.3e-7 m), of a unit normal 3e-8 rad (measured 2.3e-6 deg); bounds 4x that.
+# - paper: float32 throughout (onnxruntime has no float64 Atan/Asin): ~1e-7 relative rounding of
+#   6 inputs of up to 6 m and of the angles, through two tanh layers (20, 18) and the spherical
+#   decoding, lands ~1e-6 rad on the output angles, times up to 6.1 m of reach: measured
+#   9.6e-6 m and 3.5e-5 deg on 800 poses; bounds 5x that.
+TOLERANCE = {"improved": {"point": 1e-6, "normal_deg": 1e-5}, "paper": {"point": 5e-5, "normal_deg": 2e-4}}
+DEPTH_TOLERANCE = 1e-7  # [m] float32 rounding of a depth below 0.1 m is < 4e-9 m; computed in float64
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("onnx")
+    return {kind: export_onnx(kind, out / f"{kind}.onnx") for kind in KINDS}
+
+
+def _pose_sets():
+    """The gates' held-out sets (general, stacking, outside the training distribution) plus
+    poses out of the answered domain: 8 cm deep and separated (p_AB pushed out by 2 %)."""
+    sets = {"general": probe_poses(300, SEED, "general"), "stacking": probe_poses(300, SEED, "stacking"),
+            "outside": probe_poses(300, SEED + 1, "stacking", **OUTSIDE_RANGES),
+            "deep": probe_poses(300, SEED + 2, "general", max_depth=0.08)}
+    p, R, a, b = probe_poses(200, SEED + 3, "general")
+    sets["separated"] = (1.02 * p, R, a, b)
+    return sets
+
+
+def _angle_deg(a, b):
+    """(n,) angle between rows [deg], from atan2(|a x b|, a . b) (exact near 0)."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, axis=1)))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_export_agrees_with_compiled_predictor(exported, kind):
+    pred = load_predictor(kind)
+    session = onnx_session(exported[kind])
+    clipped = 0
+    for name, poses in _pose_sets().items():
+        p, R, a, b = [np.asarray(x, dtype=np.float32).astype(float) for x in poses]  # both see the same poses
+        got = run_onnx(session, p, R, a, b)
+        point, normal = pred.predict(p, R, size_A=a, size_B=b)
+        depth = pred.depth(p, R, size_A=a, size_B=b)
+        assert got["point_A"].dtype == np.float32 and got["point_A"].shape == (len(p), 3)
+        assert np.all(np.isfinite(got["point_A"])) and np.all(np.isfinite(got["normal_A"]))
+        point_diff = np.abs(got["point_A"] - point).max()
+        angle = _angle_deg(got["normal_A"], normal).max()
+        assert point_diff <= TOLERANCE[kind]["point"], f"{kind} {name}: point differs by {point_diff:.3g} m"
+        assert angle <= TOLERANCE[kind]["normal_deg"], f"{kind} {name}: normal differs by {angle:.3g} deg"
+        assert np.abs(np.linalg.norm(got["normal_A"], axis=1) - 1.0).max() < 1e-6
+        assert np.abs(got["depth"] - depth).max() <= DEPTH_TOLERANCE, name
+        outside = (depth < -0.01) | (depth > 0.05)
+        clipped += int(outside.sum())
+    assert clipped > 200  # the deep and separated sets exercise outside="clip" in the graph
+
+
+def test_improved_export_clips_outside_the_domain(exported):
+    """The graph reproduces outside='clip': the numpy path without the clip would place
+    some of these points further than CLIP_MARGIN outside A; the graph never does."""
+    from learned_contact.interface import CLIP_MARGIN
+
+    p, R, a, b = probe_poses(200, SEED + 4, "general")
+    got = run_onnx(onnx_session(exported["improved"]), 1.2 * p, R, a, b)  # separated by ~0.1-1 m
+    assert np.all(np.abs(got["point_A"]) <= 0.5 * a + CLIP_MARGIN + 1e-6)
+    assert np.all(got["depth"] < -0.01)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_contract_names_shapes_dynamic_axis_metadata(exported, kind):
+    model = onnx.load(exported[kind])
+    expected_in = {"p_AB": [3], "R_AB": [3, 3], "size_A": [3], "size_B": [3]}
+    assert [i.name for i in model.graph.input] == list(expected_in)
+    for value in model.graph.input:
+        t = value.type.tensor_type
+        assert t.elem_type == onnx.TensorProto.FLOAT
+        assert t.shape.dim[0].dim_param == "n" and not t.shape.dim[0].HasField("dim_value")
+        assert [d.dim_value for d in t.shape.dim[1:]] == expected_in[value.name]
+    outputs = {o.name: o.type.tensor_type for o in model.graph.output}
+    assert list(outputs) == ["point_A", "normal_A", "depth"]
+    for name, rest in (("point_A", [3]), ("normal_A", [3]), ("depth", [])):
+        assert outputs[name].elem_type == onnx.TensorProto.FLOAT
+        assert outputs[name].shape.dim[0].dim_param == "n"
+        assert [d.dim_value for d in outputs[name].shape.dim[1:]] == rest
+    meta = {p.key: p.value for p in model.metadata_props}
+    assert meta["name"] == kind
+    np.testing.assert_array_equal(np.array(json.loads(meta["supported_sizes"])), load_predictor(kind).supported_sizes)
+    assert {o.domain for o in model.opset_import} == {""} and model.opset_import[0].version == 17
+    session = onnx_session(exported[kind])
+    p, R, a, b = probe_poses(7, SEED + 5)
+    for n in (1, 7):  # the batch axis really is dynamic
+        got = run_onnx(session, p[:n], R[:n], a[:n], b[:n])
+        assert got["point_A"].shape == (n, 3) and got["normal_A"].shape == (n, 3) and got["depth"].shape == (n,)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_float64_batch_converted_to_float32(exported, kind):
+    """A float64 batch, converted to float32 by run_onnx, gives exactly the float32 batch's
+    answer; against the compiled predictor on the unrounded float64 poses the answers
+    differ only by what rounding the inputs to float32 (~1e-7 relative) moves the predictor:
+    the improved one's geometric prior amplifies it on shallow contacts (a 1e-7 m change of a
+    0.3 mm depth moves its depth-weighted patch; measured up to 1.1 mm, p99 0.3 mm, 0.065 deg
+    on held-out poses), the paper's smooth pipeline does not (measured 9e-6 m)."""
+    session = onnx_session(exported[kind])
+    p, R, a, b = probe_poses(300, SEED + 6, "stacking")
+    got64 = run_onnx(session, p, R, a, b)
+    feed = {k: np.asarray(v, dtype=np.float32) for k, v in zip(("p_AB", "R_AB", "size_A", "size_B"), (p, R, a, b))}
+    got32 = dict(zip(["point_A", "normal_A", "depth"], session.run(["point_A", "normal_A", "depth"], feed)))
+    for name, value in got32.items():
+        np.testing.assert_array_equal(got64[name], value)
+    point, normal = load_predictor(kind).predict(p, R, size_A=a, size_B=b)
+    bound = {"improved": (3e-3, 0.2), "paper": (5e-5, 2e-4)}[kind]
+    assert np.abs(got64["point_A"] - point).max() <= bound[0]
+    assert _angle_deg(got64["normal_A"], normal).max() <= bound[1]
+
+
+def test_bad_name_or_path_raises_one_line_and_writes_nothing(tmp_path):
+    out = tmp_path / "x.onnx"
+    with pytest.raises(WeightsError, match="nosuch.npz") as info:
+        export_onnx(tmp_path / "nosuch.npz", out)
+    assert "\n" not in str(info.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_export_from_weights_file(exported, tmp_path):
+    """A weights .npz (as load_predictor accepts) exports like its name; the metadata name
+    defaults to the file's stem."""
+    weights = load_predictor("paper", compiled=False).save(tmp_path / "my_paper.npz")
+    path = export_onnx(weights, tmp_path / "from_file.onnx")
+    assert {p.key: p.value for p in onnx.load(path).metadata_props}["name"] == "my_paper"
+    p, R, a, b = probe_poses(50, SEED + 8)
+    by_file, by_name = run_onnx(onnx_session(path), p, R, a, b), run_onnx(onnx_session(exported["paper"]), p, R, a, b)
+    for name, value in by_name.items():
+        np.testing.assert_array_equal(by_file[name], value)
+
+
+def test_export_leaves_no_temporary_file(exported):
+    folder = exported["paper"].parent
+    assert sorted(p.name for p in folder.iterdir()) == ["improved.onnx", "paper.onnx"]
+
+
+def test_torch_model_export_matches_torch(tmp_path):
+    torch = pytest.importorskip("torch")
+
+    class Tiny(torch.nn.Module):
+        """A toy predictor: fixed (seeded) weights over the pose and sizes."""
+
+        def __init__(self):
+            super().__init__()
+            torch.manual_seed(7)
+            self.net = torch.nn.Sequential(torch.nn.Linear(18, 16), torch.nn.SiLU(), torch.nn.Linear(16, 6))
+
+        def forward(self, p_AB, R_AB, size_A, size_B):
+            y = self.net(torch.cat([p_AB, R_AB.reshape(-1, 9), size_A, size_B], dim=1))
+            point = 0.5 * size_A * torch.tanh(p_AB + 0.1 * y[:, :3])
+            return point, torch.nn.functional.normalize(p_AB + y[:, 3:], dim=1)
+
+    module = Tiny()
+    sizes = [[6.058, 2.438, 2.591], [12.192, 2.438, 2.591]]
+    path = export_torch_model(module, tmp_path / "tiny.onnx", supported_sizes=sizes, name="tiny")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["tiny.onnx"]
+    model = onnx.load(path)
+    assert [i.name for i in model.graph.input] == ["p_AB", "R_AB", "size_A", "size_B"]
+    assert [o.name for o in model.graph.output] == ["point_A", "normal_A"]
+    assert all(v.type.tensor_type.shape.dim[0].dim_param == "n" for v in [*model.graph.input, *model.graph.output])
+    meta = {p.key: p.value for p in model.metadata_props}
+    assert meta["name"] == "tiny" and json.loads(meta["supported_sizes"]) == sizes
+    p, R, a, b = probe_poses(50, SEED + 7)
+    got = run_onnx(onnx_session(path), p, R, a, b)
+    with torch.no_grad():
+        point, normal = module(*[torch.tensor(v, dtype=torch.float32) for v in (p, R, a, b)])
+    # the same float32 operations in both runtimes; kernels may sum in another order: a few ulps
+    np.testing.assert_allclose(got["point_A"], point.numpy(), rtol=0, atol=2e-6)
+    np.testing.assert_allclose(got["normal_A"], normal.numpy(), rtol=0, atol=1e-6)
+
+
+def test_torch_missing_names_the_pin(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "torch", None)  # `import torch` raises ImportError
+    with pytest.raises(WeightsError, match=r"pip install torch==2\.13\.0"):
+        export_torch_model(object(), tmp_path / "m.onnx", supported_sizes=[[1, 1, 1]], name="m")
+
+
+def test_import_learned_contact_imports_neither_torch_nor_onnx():
+    code = ("import sys, learned_contact, learned_contact.onnx_export; "
+            "print(sorted(m for m in ('torch', 'onnx', 'onnxruntime') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_cli_export_onnx(tmp_path, capsys):
+    from testbed.cli import main
+
+    out = tmp_path / "sub" / "paper.onnx"
+    assert main(["export-onnx", "paper", "--out", str(out), "--name", "paper-export", "--probe", "50"]) == 0
+    printed = capsys.readouterr().out
+    assert str(out) in printed and "max |point| diff" in printed
+    assert {p.key: p.value for p in onnx.load(out).metadata_props}["name"] == "paper-export"
+    assert main(["export-onnx", "nosuch", "--out", str(tmp_path / "n.onnx")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "nosuch" in err
+    assert not (tmp_path / "n.onnx").exists()
