@@ -218,13 +218,13 @@ def write_atomic(model, out_path) -> Path:
 
 def export_onnx(name_or_path, out_path, *, name=None) -> Path:
     """Exports a shipped predictor ("improved", "paper") or a weights .npz (as
-    learned_contact.load_predictor accepts) to an ONNX file with the contract above.
+    learned_contact.loading.load_weights accepts) to an ONNX file with the contract above.
     name: the metadata `name` (default: the predictor's name or the file's stem).
     Returns the path written. Raises WeightsError (one line naming the file) for a
     name or path that does not load."""
-    from learned_contact.loading import load_predictor
+    from learned_contact.loading import load_weights
 
-    predictor = load_predictor(name_or_path, compiled=False)
+    predictor = load_weights(name_or_path, compiled=False)
     if name is None:
         name = name_or_path if isinstance(name_or_path, str) and not str(name_or_path).endswith(".npz") \
             else Path(name_or_path).stem
@@ -316,9 +316,9 @@ def agreement(path, name_or_path, *, n: int = 400, seed: int = 12345) -> dict:
     """Largest differences between the ONNX file at path and the compiled predictor
     name_or_path on n held-out general and n stacking poses (seed), both given the
     same float32-rounded poses: {"point_m", "normal_deg", "depth_m", "n"}."""
-    from learned_contact.loading import load_predictor
+    from learned_contact.loading import load_weights
 
-    pred = load_predictor(name_or_path)
+    pred = load_weights(name_or_path)
     session = onnx_session(path)
     worst = {"point_m": 0.0, "normal_deg": 0.0, "depth_m": 0.0, "n": 0}
     for k, dist in enumerate(("general", "stacking")):

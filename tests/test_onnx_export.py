@@ -229,3 +229,42 @@ def test_cli_export_onnx(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "nosuch" in err
     assert not (tmp_path / "n.onnx").exists()
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_round_trip_through_the_bench_loader(exported, kind):
+    """export -> learned_contact.load_predictor(.onnx) -> the same answers as the compiled
+    predictor on float32-exact poses (the loader's checks, normalisation and clip change
+    nothing), and the same depth; the tolerances are the export test's (TOLERANCE)."""
+    onnx_pred = load_predictor(exported[kind])
+    assert onnx_pred.kind == "onnx" and onnx_pred.name == kind
+    compiled = load_predictor(kind)
+    p, R, a, b = (np.asarray(v, dtype=np.float32).astype(float) for v in probe_poses(300, SEED + 8, "stacking"))
+    point, normal = onnx_pred.predict(p, R, size_A=a, size_B=b)
+    want_point, want_normal = compiled.predict(p, R, size_A=a, size_B=b)
+    assert np.abs(point - want_point).max() <= TOLERANCE[kind]["point"]
+    angle = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", normal, want_normal), -1, 1))).max()
+    assert angle <= TOLERANCE[kind]["normal_deg"] + 1e-6  # + arccos's own resolution near 1
+    np.testing.assert_allclose(onnx_pred.depth(p, R, size_A=a, size_B=b), compiled.depth(p, R, size_A=a, size_B=b),
+                               atol=DEPTH_TOLERANCE)
+
+
+def test_torch_model_exported_then_benched(tmp_path):
+    """The README's path for a user's model: a torch module -> export_torch_model -> the
+    bench's loader answers like the module (and checks it like any model)."""
+    torch = pytest.importorskip("torch")
+
+    class Centre(torch.nn.Module):
+        def forward(self, p_AB, R_AB, size_A, size_B):
+            return 0.5 * p_AB, torch.nn.functional.normalize(p_AB, dim=1)
+
+    sizes = load_predictor("improved").supported_sizes.tolist()
+    path = export_torch_model(Centre(), tmp_path / "centre.onnx", supported_sizes=sizes, name="centre")
+    pred = load_predictor(str(path))
+    assert (pred.kind, pred.name) == ("onnx", "centre")
+    p, R, a, b = probe_poses(20, SEED + 9)
+    point, normal = pred.predict(p, R, size_A=a, size_B=b)
+    inside = np.asarray(pred.in_domain(p, R, size_A=a, size_B=b))
+    assert inside.sum() >= 10  # the held-out poses are in contact: the comparison is not vacuous
+    np.testing.assert_allclose(point[inside], 0.5 * p[inside], atol=1e-6)
+    np.testing.assert_allclose(normal, p / np.linalg.norm(p, axis=1, keepdims=True), atol=1e-6)
