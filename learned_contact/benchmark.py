@@ -37,6 +37,8 @@ import time
 
 import numpy as np
 
+from learned_contact.sources import SHIPPED_NAMES
+
 TARGETS = {  # ratio name -> upper bound (issue 10)
     "single improved compiled / drake point-pair set+query": 1.0,
     "single paper compiled / drake point-pair set+query": 1.0,
@@ -78,7 +80,7 @@ FIRST_CALL = (
 )
 
 
-def first_call_costs(kinds=("improved", "paper")) -> dict:
+def first_call_costs(kinds=SHIPPED_NAMES) -> dict:
     """{kind/cache: (import s, load + first predict s, second predict s)} in fresh processes."""
     out = {}
     with tempfile.TemporaryDirectory() as cold:
@@ -119,7 +121,7 @@ def measure(args) -> dict:
     idx = rng.choice(n, size=min(args.single, n), replace=False)
     singles = [(p[i].copy(), R[i].copy(), sA[i].copy(), sB[i].copy()) for i in idx]
     res = {}
-    for kind in ("improved", "paper"):
+    for kind in SHIPPED_NAMES:
         for compiled in (True, False):
             pred = load_predictor(kind, compiled=compiled)
             label = f"{kind} {'compiled' if compiled else 'numpy'}"
@@ -157,7 +159,7 @@ def measure(args) -> dict:
 def ratios(res: dict, batch: int) -> dict:
     pp_set, pp_kernel = res["drake point-pair, set pose + query"], res["drake point-pair, kernel (query only)"]
     out = {}
-    for kind in ("improved", "paper"):
+    for kind in SHIPPED_NAMES:
         out[f"single {kind} compiled / drake point-pair set+query"] = res[f"{kind} compiled, one pair per call"] / pp_set
         out[f"batched {kind} compiled / drake point-pair kernel"] = res[f"{kind} compiled, batched {batch}"] / pp_kernel
         out[f"batched {kind} numpy / drake point-pair kernel"] = res[f"{kind} numpy, batched {batch}"] / pp_kernel

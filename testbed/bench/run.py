@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from learned_contact.sources import label, load_predictor
+from learned_contact.sources import SHIPPED_NAMES, label, load_predictor
 from testbed.bench.accuracy import pose_sets, accuracy
 from testbed.bench.cost import cost_table
 from testbed.bench.scenes import (CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop,
@@ -22,7 +22,7 @@ from testbed.bench.scenes import (CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENE
 from testbed.errors import TestbedError
 
 SCHEMA = "testbed.bench/1"
-DEFAULT_PREDICTORS = ("improved", "paper")
+DEFAULT_PREDICTORS = SHIPPED_NAMES
 # Poses per held-out set: the gates' 400 in both modes (their thresholds are set for it; labelling
 # the four sets costs ~6 s on 2 cores), so a quick bench judges accuracy exactly as a full one.
 N_POSES = 400

@@ -12,7 +12,7 @@ HELP = "judge one or more contact predictors side by side (accuracy, scenes, clo
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("predictors", nargs="*", default=["improved", "paper"],
+    parser.add_argument("predictors", nargs="*", default=list(sources.SHIPPED_NAMES),
                         help=f"each one of: {sources.HELP} (default: improved paper)")
     parser.add_argument("--quick", action="store_true",
                         help="100 poses per set, two_stack open loop, two closed-loop scenes (a few minutes)")
@@ -28,7 +28,7 @@ def run(args) -> int:
     if args.workers < 1:
         raise TestbedError(f"--workers: expected at least 1, got {args.workers}")
     out = Path(args.out) if args.out else Path("reports") / "bench" / timestamp()
-    data = bench(args.predictors or ["improved", "paper"], quick=args.quick, out_dir=out, seed=args.seed,
+    data = bench(args.predictors or list(sources.SHIPPED_NAMES), quick=args.quick, out_dir=out, seed=args.seed,
                  workers=args.workers)
     for rank, spec in enumerate(data["leaderboard"], 1):
         e = data["predictors"][spec]
