@@ -29,7 +29,7 @@ from pydrake.systems.framework import LeafSystem
 from testbed import contact_extraction
 from testbed.contact_geometry import cross, quaternion_from_rotation
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.physics import GRAVITY  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 from testbed.records import TableBuilder
 
@@ -184,6 +184,7 @@ class ContactLogger(LeafSystem):
 class ContactLogEffect(Effect):
     name = "contact_log"
     Config = ContactLogConfig
+    role = Role.RECORDER
     order = 10
 
     def check(self, effects) -> None:

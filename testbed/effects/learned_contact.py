@@ -33,10 +33,9 @@ from pydrake.systems.framework import LeafSystem
 
 from testbed.contact_geometry import angle_between
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
 from testbed.records import TableBuilder
-
 
 MIN_PENETRATION = 1e-6  # [m]
 # Recorded steps predicted per predictor call: one batched call amortises the per-call
@@ -164,6 +163,7 @@ def summarize_errors(table: dict, prefix: str = "learned") -> dict:
 class LearnedContactEffect(Effect):
     name = "learned_contact"
     Config = LearnedContactConfig
+    role = Role.OBSERVER
     order = 30
     requires = ("contact", "contact_log")
 

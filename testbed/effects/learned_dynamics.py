@@ -78,7 +78,8 @@ from pydrake.systems.framework import LeafSystem
 
 from testbed.containers import CONTAINER_TYPES
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
+from testbed.errors import ScenarioError
 from testbed.learned_force_law import law_modulus, pressure_stiffness, stability_numbers
 from testbed.records import TableBuilder
 
@@ -283,6 +284,9 @@ def _empty() -> dict:
 class LearnedDynamicsEffect(Effect):
     name = "learned_dynamics"
     Config = LearnedDynamicsConfig
+    role = Role.PHYSICS
+    untranslated_reason = "the learned contact force law drives Drake's plant only"
+    measured_alone = False  # it replaces Drake's container contact (the closed-loop cases time it)
     order = 22  # before crane (25), which asks it whether its container is seated
     requires = ("contact",)
     STABLE_BELOW = 4.0  # (h w)^2 + 2 h c / m of the explicit symplectic Euler step
@@ -308,6 +312,11 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("mu", f"expected a non-negative friction coefficient, got {c.mu}")
         if self.scenario.plant.time_step <= 0:
             raise self.fail("", "needs a discrete plant (plant.time_step > 0)")
+        for i, spec in enumerate(self.scenario.containers):
+            if spec.type not in CONTAINER_TYPES:  # the law is fitted, the predictors trained, per container size pair
+                raise ScenarioError(self.source, f"containers[{i}].type",
+                                    f"'{spec.name}' is a generic {spec.type!r}; the learned closed loop "
+                                    f"(effects.learned_dynamics) expects container types only: {', '.join(CONTAINER_TYPES)}")
         self._prepare()
 
     def plan(self, plan) -> None:

@@ -19,7 +19,7 @@ from pydrake.systems.framework import LeafSystem
 from testbed import contact_extraction
 from testbed.contact_geometry import angle_between
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
 from testbed.records import TableBuilder
 
@@ -83,6 +83,7 @@ def disagreement(truth: dict, other: dict) -> dict:
 class ShadowContactEffect(Effect):
     name = "shadow_contact"
     Config = ShadowContactConfig
+    role = Role.RECORDER
     order = 11
     requires = ("contact",)
 

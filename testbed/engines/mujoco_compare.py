@@ -23,7 +23,6 @@ from testbed.engines.mujoco import check_supported
 from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
 from testbed.physics import percentile_summary
 
-
 RECORD_PERIOD = 0.01  # [s] spacing of the compared states (testbed/compare/twin.py's default)
 
 
@@ -132,21 +131,22 @@ def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
 
 def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: float | None = None,
                    with_point: bool = True, bare_truth: bool = True, replay: bool = False,
-                   record_every: int | None = None, time_step: float | None = None) -> dict:
+                   record_every: int | None = None, time_step: float | None = None, source=None) -> dict:
     """Twin run of `scene` (name, path or Scenario): Drake (the scene's contact model, the
     ground truth) and MuJoCo (`params` 'matched' | 'default'). Returns the compare.json
     figures (the learned compare's keys, MuJoCo in the learned slot, plus contact_* and
     wall_per_sim_s_mujoco); writes out_dir/compare.json, trajectories.npz, divergence.png
     (and replay.html when `replay`) atomically when out_dir is given.
     bare_truth: time Drake again without logging (the truth's wall time); with_point: time
-    Drake point contact as well. Raises UnsupportedSceneError before anything runs.
+    Drake point contact as well; source: the file a loaded Scenario came from (for messages).
+    Raises UnsupportedSceneError before anything runs.
     """
     from testbed.compare.metrics import compare_figures
     from testbed.compare.runs import run_variant
     from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
     if isinstance(scene, Scenario):
-        scenario, source = scene, "<scenario>"
+        scenario, source = scene, source or "<scenario>"
     else:
         source = resolve_scene_path(scene)
         scenario = load_scenario(source)
