@@ -125,9 +125,9 @@ def measure(args) -> dict:
             label = f"{kind} {'compiled' if compiled else 'numpy'}"
             pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm up (loads cached machine code)
             res[f"{label}, one pair per call"] = _per_pair(
-                lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles], 1, len(singles))
+                lambda pred=pred: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles], 1, len(singles))
             res[f"{label}, batched {args.batch}"] = _per_pair(
-                lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), 3 if compiled else 1, len(pb))
+                lambda pred=pred: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), 3 if compiled else 1, len(pb))
     from learned_contact.compiled import improved_predict
     from learned_contact.compiled.kernels import improved_features
 

@@ -252,7 +252,8 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
     if not (scenario.duration > 0 and math.isfinite(scenario.duration)):
         raise ScenarioError(source, "duration", f"expected a positive number of seconds, got {scenario.duration}")
     if not scenario.plant.time_step > 0:
-        raise ScenarioError(source, "plant.time_step", f"expected a positive discrete time step [s] (continuous plants are not supported), got {scenario.plant.time_step}")
+        raise ScenarioError(source, "plant.time_step", "expected a positive discrete time step [s] (continuous plants "
+                                                       f"are not supported), got {scenario.plant.time_step}")
     if not scenario.containers:
         raise ScenarioError(source, "containers", "expected at least one container")
     seen: set[str] = set()

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def write_series(path, runs: dict) -> None:
     """trajectories.npz: per run kind K ('truth', 'learned', 'point'): K_time (n,) [s],
     K_p_WB (n, m, 3) [m], K_q_WB (n, m, 4) (w, x, y, z), K_V_WB (n, m, 6), K_energy (n,) [J];
@@ -46,9 +45,9 @@ def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
 
 def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02) -> None:
     """A self-contained Meshcat replay: learned boxes solid, the truth as translucent ghosts."""
+    from pydrake.common.eigen_geometry import Quaternion
     from pydrake.geometry import Box, Rgba
     from pydrake.math import RigidTransform
-    from pydrake.common.eigen_geometry import Quaternion
 
     from testbed.viz.replay import finish_recording
     from testbed.viz.server import start_meshcat

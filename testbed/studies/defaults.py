@@ -285,7 +285,8 @@ def learned_loop_stability(setting: Setting) -> dict:
         s.plant.time_step = setting.time_step
         specs = s.containers
         pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs)) if not (specs[i].fixed and specs[j].fixed)]
-        kappa = [pressure_stiffness(specs[i].type, specs[j].type, setting.modulus) for i, j in pairs if specs[i].type in CONTAINER_TYPES and specs[j].type in CONTAINER_TYPES]
+        kappa = [pressure_stiffness(specs[i].type, specs[j].type, setting.modulus) for i, j in pairs
+                 if specs[i].type in CONTAINER_TYPES and specs[j].type in CONTAINER_TYPES]
         if not pairs or len(kappa) != len(pairs):
             continue
         for row in stability_numbers(s, pairs, kappa, dissipation):
@@ -315,7 +316,8 @@ def report_sections(summary, wall_s: float | None = None) -> list[Section]:
            f"crane landings {CRANE_PENETRATION_BOUND * 1e3:g} mm, resting scenes {RESTING_PENETRATION_BOUND * 1e3:g} mm); "
            f"toss error: held-out real cube tosses, mean position error in % of cube width (FAIL above "
            f"{TOSS_ERROR_BOUND * 100:g} %, the published Drake figure); learned loop: the closed loop's explicit "
-           f"step number at this modulus and step, worst shipped scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); cost ratio against the cheapest setting "
+           f"step number at this modulus and step, worst shipped scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); "
+           f"cost ratio against the cheapest setting "
            f"of this sweep failing no physics criterion (FAIL above {COST_FACTOR:g}x)."
            + (f" Sweep wall time {wall_s:.0f} s." if wall_s is not None else ""))
     failures = [f"{o['label']}: " + "; ".join(o["failures"]) for o in summary if o["failures"]]

@@ -8,7 +8,8 @@ Pose sets (A at the origin; container types 1CC, 1AA, 1AAA)
   on A, yaw a multiple of pi, centred within +-0.1 m, tilted about a random horizontal
   axis by angles log-spaced from 1e-5 to 1e-1 rad, penetration 0.1 to 5 mm.
 The reference answer of every pose is Drake's static hydroelastic centre of pressure
-and pressure-weighted normal (compliant-compliant, E as shipped: 1e9 Pa; the point and normal do not change when both moduli scale together; learned_contact/labels.py).
+and pressure-weighted normal (compliant-compliant, E as shipped: 1e9 Pa; the point and
+normal do not change when both moduli scale together; learned_contact/labels.py).
 """
 
 from __future__ import annotations

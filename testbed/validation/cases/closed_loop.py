@@ -14,8 +14,8 @@ from __future__ import annotations
 import math
 
 from testbed.containers import HYDROELASTIC_MODULUS
-from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.document import Bullets, Section, Text, table
+from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 
