@@ -37,6 +37,10 @@ import time
 
 import numpy as np
 
+from learned_contact import load_predictor
+from learned_contact.labels import _pair_scene, _query, make_dataset
+from testbed.containers import CONTAINER_TYPES
+
 TARGETS = {  # ratio name -> upper bound (issue 10)
     "single improved compiled / drake point-pair set+query": 1.0,
     "single paper compiled / drake point-pair set+query": 1.0,
@@ -97,8 +101,6 @@ def first_call_costs(kinds=("improved", "paper")) -> dict:
 
 
 def _poses(n: int):
-    from learned_contact.labels import make_dataset
-
     data = [make_dataset(d, n, 424_242, progress=False) for d in ("stacking", "general")]
     cat = lambda f: np.concatenate([getattr(d, f) for d in data])  # noqa: E731
     return cat("p_AB"), cat("R_AB"), cat("size_A"), cat("size_B")
@@ -106,10 +108,6 @@ def _poses(n: int):
 
 def measure(args) -> dict:
     from pydrake.geometry import HydroelasticContactRepresentation
-
-    from learned_contact import load_predictor
-    from learned_contact.labels import _pair_scene, _query
-    from testbed.containers import CONTAINER_TYPES
 
     p, R, sA, sB = _poses(args.n)
     n = len(p)

@@ -46,6 +46,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from testbed.boxes import BOX_TYPE, BoxSpec, ContactProperties, GroundSpec, validate_box, validate_ground  # noqa: F401 (re-exported)
 from testbed.containers import CONTAINER_TYPES, ContainerType
 from testbed.effects import registry
+from testbed.effects.contact import drake_approximation
 from testbed.errors import ScenarioError
 from testbed.scene_yaml import SceneDumper, apply_override, check_raw, parse_override, parse_yaml
 
@@ -167,7 +168,6 @@ def _typed_from_raw(data: dict, source) -> Scenario:
     effects = data.get("effects")
     if effects is not None:
         data["effects"] = {k: (v if v is not None else {}) for k, v in effects.items()}
-    from testbed.effects.contact import drake_approximation
 
     contact = (data.get("effects") or {}).get("contact") or {}
     defaults = registry()["contact"].Config()
@@ -344,8 +344,6 @@ def dump_scenario(scenario: Scenario) -> str:
 
 def _derive_plant(scenario: Scenario) -> None:
     """The plant's copies of the contact effect's model and (resolved) approximation."""
-    from testbed.effects.contact import drake_approximation
-
     contact = scenario.effects.contact
     scenario.plant.contact_model = contact.model
     scenario.plant.discrete_contact_approximation = drake_approximation(contact.approximation, contact.model)

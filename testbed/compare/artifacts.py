@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.viz.replay import finish_recording
+from testbed.viz.server import start_meshcat
+
 
 def write_series(path, runs: dict) -> None:
     """trajectories.npz: per run kind K ('truth', 'learned', 'point'): K_time (n,) [s],
@@ -48,9 +51,6 @@ def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.0
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.geometry import Box, Rgba
     from pydrake.math import RigidTransform
-
-    from testbed.viz.replay import finish_recording
-    from testbed.viz.server import start_meshcat
 
     meshcat = start_meshcat(port=0)
     specs = [c for c in scenario.containers if not c.fixed]

@@ -19,6 +19,8 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from testbed.builder import build_scene
 from testbed.effects import Role, registry
+from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+from testbed.learned_force_law import law_modulus
 
 
 def variant(scenario, kind: str, predictor: str | None = None):
@@ -27,9 +29,6 @@ def variant(scenario, kind: str, predictor: str | None = None):
     scene's own learned_dynamics config if it declares one, else "improved"). Every kind
     runs the containers at the learned law's modulus (law_modulus: 1e8 Pa unless the scene
     sets one), not the SDF's 1e9 Pa."""
-    from testbed.effects.learned_dynamics import LearnedDynamicsConfig
-    from testbed.learned_force_law import law_modulus
-
     out = copy.deepcopy(scenario)
     if out.effects.contact is not None and out.effects.contact.hydroelastic_modulus is None:
         # every twin at the learned law's modulus (learned_force_law.KAPPA_MODULUS: its fit, and

@@ -6,8 +6,11 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from testbed.builder import build_scene
+from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
+from testbed.errors import TestbedError
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
@@ -44,9 +47,6 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
     """compare_scene for each of `predictors`, sharing one truth run (and one point run):
     out_dirs[i] receives predictors[i]'s files. Every scene is built (and so every
     predictor loaded) before anything runs. Returns the figures, in order."""
-    from testbed.builder import build_scene
-    from testbed.errors import TestbedError
-
     scenario, source = _load(scene, source)
     duration = scenario.duration if duration is None else float(duration)
     if not duration > 0:
@@ -82,8 +82,6 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
 
 
 def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool) -> None:
-    from testbed.compare import artifacts
-
     with atomic_directory(out_dir) as tmp:
         artifacts.write_series(tmp / "trajectories.npz", runs)
         artifacts.plot_divergence(tmp / "divergence.png", runs["truth"], runs["learned"], scenario.name,

@@ -30,6 +30,7 @@ from testbed import contact_extraction
 from testbed.contact_geometry import cross, quaternion_from_rotation
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
+from testbed.geometry_index import geometry_body_index
 from testbed.physics import GRAVITY  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 from testbed.records import TableBuilder
 
@@ -105,8 +106,6 @@ class ContactLogger(LeafSystem):
     def _geometry(self, context):
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.geometry_index import geometry_body_index
-
             self._owner = geometry_body_index(self._assembly, query)
         poses = self._poses_port.Eval(context)
         velocities = self._velocities_port.Eval(context)

@@ -21,6 +21,7 @@ from testbed.contact_geometry import angle_between
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
+from testbed.geometry_index import geometry_body_index
 from testbed.records import TableBuilder
 
 
@@ -49,8 +50,6 @@ class ShadowContactProbe(LeafSystem):
     def _record(self, context) -> None:
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.geometry_index import geometry_body_index
-
             self._owner = geometry_body_index(self._assembly, query)
             self._stiffness = contact_extraction.point_stiffness(query)
         if self._kind == "point":

@@ -28,7 +28,11 @@ from testbed.builder import build_scene
 from testbed.contact_extraction import near_distances
 from testbed.effects import Role, registry
 from testbed.effects.contact import drake_approximation
+from testbed.engines.mujoco import check_supported, mujoco_module
+from testbed.engines.mujoco_run import sampled_run_mujoco
+from testbed.errors import OptionalDependencyError, TestbedError
 from testbed.scenario import Scenario, load_scenario
+from testbed.simulation import simulate
 
 SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
 MUJOCO_TIMING_REPEATS = 3  # MuJoCo sweep points: the fastest of this many identical runs is timed
@@ -140,8 +144,6 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
     scene it cannot translate gives rows with status "unavailable: <why>"."""
     unknown = set(engines) - {"drake", "mujoco"}
     if unknown:
-        from testbed.errors import TestbedError
-
         raise TestbedError(f"engines: unknown {sorted(unknown)}; expected 'drake' and/or 'mujoco'")
     base = load_scenario(scene)
     rows, references = [], {}
@@ -171,15 +173,10 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
 
 def _mujoco_rows(base, scene, time_steps, duration, reference_step, params_sets, reference_of) -> list[dict]:
     """The MuJoCo sweep rows (see sweep); the reference is Drake's, of the scene's own model."""
-    from testbed.errors import OptionalDependencyError
-
     model, approximation = base.effects.contact.model, base.effects.contact.approximation
     head = {"scene": scene, "engine": "mujoco", "model": "mujoco", "reference_step": reference_step,
             "reference": f"drake {model} {approximation} h={reference_step:g}"}
     try:
-        from testbed.engines.mujoco import check_supported, mujoco_module
-        from testbed.engines.mujoco_run import sampled_run_mujoco
-
         mujoco_module()
         check_supported(base)
     except (ImportError, OptionalDependencyError, ValueError) as e:  # UnsupportedSceneError is a ValueError
@@ -241,8 +238,6 @@ def effect_costs(scene: str, *, effects=None, duration: float = 0.5, repeats: in
 
 
 def _wall(scenario: Scenario) -> float:
-    from testbed.simulation import simulate
-
     scene = build_scene(scenario)
     result = simulate(scene)
     return result.summary["wall_time_s"]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 
+from testbed.compare import compare_predictors
 from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.document import Bullets, Section, Text, table
 from testbed.learned_force_law import KAPPA_MODULUS
@@ -107,8 +108,6 @@ class ClosedLoopCase(CaseKind):
 
     def run(self, scene: str, duration: float, predictors=PREDICTORS) -> dict:
         import tempfile
-
-        from testbed.compare import compare_predictors
 
         with tempfile.TemporaryDirectory(prefix="closed-loop-") as tmp:
             dirs = [f"{tmp}/{p}" for p in predictors]

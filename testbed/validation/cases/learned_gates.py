@@ -4,6 +4,7 @@ No section of its own: its gates are listed with all the others."""
 
 from __future__ import annotations
 
+from learned_contact.gates import evaluate_gates
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 
@@ -17,8 +18,6 @@ class LearnedGatesCase(CaseKind):
         return [Case("learned-gates", "learned_gates", {"seed": 0})] if suite in ("default", "full") else []
 
     def run(self, seed: int) -> dict:
-        from learned_contact.gates import evaluate_gates
-
         return evaluate_gates(seed=seed)
 
     def gates(self, record: dict) -> list[Gate]:

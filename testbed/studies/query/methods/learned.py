@@ -9,6 +9,8 @@ Missing or unreadable weights mark the methods unavailable, with the reason.
 
 from __future__ import annotations
 
+from learned_contact import load_predictor
+from learned_contact.paper_mlp import decode_paper, predict_paper
 from testbed.studies.query.methods.base import ContactMethod
 
 ORDER = 40
@@ -22,8 +24,6 @@ def paper_predict(mlp, p_AB, R_AB, size_A):
     """The paper MLP's answer for poses p_AB (n, 3) [m], R_AB (n, 3, 3), size_A (n, 3)
     or (3,) [m]: (point (n, 3) [m] on A's surface, normal (n, 3) unit A->B) in A's frame
     (mlp: a learned_contact.mlp.NumpyMLP; decoding: learned_contact.paper_mlp)."""
-    from learned_contact.paper_mlp import decode_paper, predict_paper
-
     return decode_paper(predict_paper(mlp, p_AB, R_AB), p_AB, size_A)
 
 
@@ -33,8 +33,6 @@ def build(poses, scenes, options) -> list[ContactMethod]:
     methods = []
     for prefix, label, name, field in MODELS:
         try:
-            from learned_contact import load_predictor
-
             path = getattr(options, field)
             predictor = load_predictor(path if path is not None else name)
         except Exception as exc:  # noqa: BLE001 - missing or unreadable weights: report, go on
