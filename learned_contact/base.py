@@ -14,8 +14,8 @@ from typing import ClassVar
 
 import numpy as np
 
-from learned_contact.interface import (DOMAIN_DEPTH, check_numpy, check_outside, check_poses, check_size_shape,
-                                       domain_error, raise_for_status)
+from learned_contact.geometry import sat_normal
+from learned_contact.interface import DOMAIN_DEPTH, check_numpy, check_outside, check_poses, check_size_shape, domain_error, raise_for_status
 from learned_contact.mlp import NumpyMLP
 
 FORMAT_VERSION = 1
@@ -92,8 +92,6 @@ class MLPPredictor:
             if status:
                 raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
         else:
-            from learned_contact.geometry import sat_normal
-
             p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
             depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
         return float(depth[0]) if single else depth

@@ -37,7 +37,9 @@ import time
 
 import numpy as np
 
-from learned_contact.sources import SHIPPED_NAMES
+from learned_contact.labels import _pair_scene, _query, make_dataset
+from learned_contact.sources import SHIPPED_NAMES, load_predictor
+from testbed.containers import CONTAINER_TYPES
 
 TARGETS = {  # ratio name -> upper bound (issue 10)
     "single improved compiled / drake point-pair set+query": 1.0,
@@ -99,8 +101,6 @@ def first_call_costs(kinds=SHIPPED_NAMES) -> dict:
 
 
 def _poses(n: int):
-    from learned_contact.labels import make_dataset
-
     data = [make_dataset(d, n, 424_242, progress=False) for d in ("stacking", "general")]
     cat = lambda f: np.concatenate([getattr(d, f) for d in data])  # noqa: E731
     return cat("p_AB"), cat("R_AB"), cat("size_A"), cat("size_B")
@@ -108,10 +108,6 @@ def _poses(n: int):
 
 def measure(args) -> dict:
     from pydrake.geometry import HydroelasticContactRepresentation
-
-    from learned_contact import load_predictor
-    from learned_contact.labels import _pair_scene, _query
-    from testbed.containers import CONTAINER_TYPES
 
     p, R, sA, sB = _poses(args.n)
     n = len(p)
@@ -127,9 +123,9 @@ def measure(args) -> dict:
             label = f"{kind} {'compiled' if compiled else 'numpy'}"
             pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm up (loads cached machine code)
             res[f"{label}, one pair per call"] = _per_pair(
-                lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles], 1, len(singles))
+                lambda pred=pred: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles], 1, len(singles))
             res[f"{label}, batched {args.batch}"] = _per_pair(
-                lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), 3 if compiled else 1, len(pb))
+                lambda pred=pred: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), 3 if compiled else 1, len(pb))
     from learned_contact.compiled import improved_predict
     from learned_contact.compiled.kernels import improved_features
 

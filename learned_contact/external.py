@@ -30,6 +30,7 @@ import numpy as np
 from learned_contact.errors import PredictorOutputError
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, check_numpy, check_outside, domain_error
 from testbed.box_geometry import sat_normal
+from testbed.containers import CONTAINER_TYPES
 
 # A model's normals are accepted within this distance of unit length and normalised: a
 # float32 network normalising its own output is unit to ~1e-7; 1e-3 admits a model that
@@ -43,7 +44,6 @@ AnswerFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple]
 def default_sizes() -> np.ndarray:
     """(k, 3) full extents [m] of every container type the testbed simulates: what a
     model that states no `supported_sizes` is asked to answer."""
-    from testbed.containers import CONTAINER_TYPES
 
     return np.array([t.size for t in CONTAINER_TYPES.values()], dtype=float)
 

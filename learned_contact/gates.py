@@ -27,7 +27,9 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.encodings import canonicalise, features, octant_signs, paper_outputs
+from learned_contact.labels import make_dataset
 from learned_contact.metrics import paper_table, point_normal_errors
+from learned_contact.sources import load_predictor
 
 N_HELD_OUT = 400
 OUTSIDE_RANGES = {"max_tilt_deg": 10.0, "max_depth": 0.05}  # training: 5 deg, 0.03 m
@@ -67,8 +69,6 @@ REPORTED = ("general normal error median", "general normal error p95", "stacking
 
 def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False) -> dict:
     """{"stacking", "general", "outside": Dataset} of held-out poses (not cached)."""
-    from learned_contact.labels import make_dataset
-
     data = {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
             for d, k in (("stacking", 5), ("general", 6))}
     wide = make_dataset("stacking", n, 10 * seed + 7, workers=workers, progress=progress, use_cache=False,
@@ -149,8 +149,6 @@ def verdicts(figures: dict, n: int, seed) -> list[dict]:
 
 def evaluate_gates(seed: int = 0, *, predictor_path=None, n: int = N_HELD_OUT) -> dict:
     """Gates of the predictor at `predictor_path` (default: shipped) on fresh held-out poses."""
-    from learned_contact.sources import load_predictor
-
     data = held_out(seed, n)
     figures = gate_figures(load_predictor(predictor_path), data)
     return {"gates": verdicts(figures, n, seed), "figures": figures, "n": n, "seed": seed,

@@ -23,9 +23,10 @@ import numpy as np
 
 from learned_contact.base import FORMAT_VERSION
 from learned_contact.errors import WeightsError
-from learned_contact.mlp import ACTIVATIONS, NumpyMLP
 from learned_contact.files import check_regular_file
+from learned_contact.mlp import ACTIVATIONS, NumpyMLP
 from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
+from testbed.containers import CONTAINER_TYPES
 
 SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}
 # kind -> (input width, output width) of its network
@@ -127,7 +128,6 @@ def load_weights(name_or_path=None, *, compiled: bool = True):
     if "supported_sizes" in arrays:
         sizes = np.asarray(arrays["supported_sizes"], dtype=float)
     elif legacy_paper:
-        from testbed.containers import CONTAINER_TYPES
 
         sizes = np.array([CONTAINER_TYPES[t].size for t in LEGACY_PAPER_TYPES], dtype=float)
     else:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.encodings import angle_error, paper_outputs
+from learned_contact.encodings import angle_error, octant_signs, paper_outputs
 from learned_contact.geometry import CONTACT_TYPES
 
 PAPER_OUTPUT_NAMES = ("az_point", "el_point", "az_force", "el_force")
@@ -48,8 +48,6 @@ def point_normal_errors(point, normal, ds):
 def evaluate(point, normal, ds) -> dict:
     """All figures of one model on one Dataset: paper table, point error [m] and [% of
     A's length], normal error [deg], overall and per contact type."""
-    from learned_contact.encodings import octant_signs
-
     S = octant_signs(ds.p_AB)
     e_point, e_normal = point_normal_errors(point, normal, ds)
     pct = 100.0 * e_point / ds.size_A[:, 0]

@@ -51,8 +51,15 @@ from pathlib import Path
 
 import numpy as np
 
+from learned_contact import onnx_graph as og
+from learned_contact.encodings import LENGTH_SCALE, PAPER_FRAME
 from learned_contact.errors import WeightsError
+from learned_contact.geometry import sat_normal
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
+from learned_contact.loading import load_weights
+from learned_contact.onnx_graph import IR_VERSION, OPSET, onnx_type
+from learned_contact.predictor import POINT_STEP
+from learned_contact.sampling import sample
 
 INPUTS = ("p_AB", "R_AB", "size_A", "size_B")
 INPUT_SHAPES = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}
@@ -72,7 +79,6 @@ def _onnx():
 
 def _inputs(g, dt):
     """Casts the float32 contract inputs to dt; returns (p, R, hA, hB) names."""
-    from learned_contact.onnx_graph import onnx_type
 
     names = []
     for name in INPUTS:
@@ -97,10 +103,6 @@ def _clip_outside(g, point, depth, hA):
 
 def improved_graph(predictor):
     """The Graph of predictor.ContactPredictor (see the module docstring), in float64."""
-    from learned_contact import onnx_graph as og
-    from learned_contact.encodings import LENGTH_SCALE
-    from learned_contact.predictor import POINT_STEP
-
     g = og.Graph(np.float64)
     p, R, hA, hB = _inputs(g, np.float64)
     S, p_c, R_c = og.canonicalise(g, p, R)
@@ -131,16 +133,16 @@ def improved_graph(predictor):
 def paper_graph(predictor):
     """The Graph of paper_mlp.PaperPredictor (see the module docstring): the pipeline in
     float32 (onnxruntime has no float64 Atan/Asin), the separating-axis depth in float64."""
-    from learned_contact import onnx_graph as og
-    from learned_contact.encodings import PAPER_FRAME
-
     g = og.Graph(np.float32)
     p, R, hA, _ = _inputs(g, np.float32)
     S, p_c, R_c = og.canonicalise(g, p, R)
     rows = [g.sq(g.take(R_c, [r], 1), [1]) for r in range(3)]
     det = g.rsum(g.mul(rows[0], og.cross(g, rows[1], rows[2])), 1, keep=1)
     flip = g.sign_ge0(det)  # det is +-1: its sign is never in doubt
-    Rij = lambda i, j: g.take(rows[i], [j], 1)
+
+    def Rij(i, j):
+        return g.take(rows[i], [j], 1)
+
     roll = og.atan2(g, Rij(2, 1), g.mul(Rij(2, 2), flip))
     pitch = g.op("Asin", g.clip(g.op("Neg", Rij(2, 0)), g.f(-1.0), g.f(1.0)))
     yaw = og.atan2(g, Rij(1, 0), Rij(0, 0))
@@ -171,7 +173,6 @@ def model_proto(g, *, supported_sizes, name: str):
     onnx = _onnx()
     from onnx import TensorProto, helper
 
-    from learned_contact.onnx_graph import IR_VERSION, OPSET
 
     inputs = [helper.make_tensor_value_info(k, TensorProto.FLOAT, [BATCH, *INPUT_SHAPES[k]]) for k in INPUTS]
     outputs = [helper.make_tensor_value_info("point_A", TensorProto.FLOAT, [BATCH, 3]),
@@ -222,7 +223,6 @@ def export_onnx(name_or_path, out_path, *, name=None) -> Path:
     name: the metadata `name` (default: the predictor's name or the file's stem).
     Returns the path written. Raises WeightsError (one line naming the file) for a
     name or path that does not load."""
-    from learned_contact.loading import load_weights
 
     predictor = load_weights(name_or_path, compiled=False)
     if name is None:
@@ -282,8 +282,6 @@ def probe_poses(n: int, seed: int, distribution: str = "general", **ranges):
     the separating-axis depth (exact for overlapping boxes; no Drake labels needed).
     ranges: sample's max_depth [m] / max_tilt_deg (gates.OUTSIDE_RANGES for the
     "outside" set)."""
-    from learned_contact.geometry import sat_normal
-    from learned_contact.sampling import sample
 
     props = sample(distribution, n, seed, **ranges)
     size_A, size_B = props.sizes()
@@ -316,7 +314,6 @@ def agreement(path, name_or_path, *, n: int = 400, seed: int = 12345) -> dict:
     """Largest differences between the ONNX file at path and the compiled predictor
     name_or_path on n held-out general and n stacking poses (seed), both given the
     same float32-rounded poses: {"point_m", "normal_deg", "depth_m", "n"}."""
-    from learned_contact.loading import load_weights
 
     pred = load_weights(name_or_path)
     session = onnx_session(path)

@@ -80,7 +80,7 @@ def train_paper(train, val, config: PaperConfig = PaperConfig(), *, seed: int = 
         net = torch.nn.Sequential(*layers)
         opt = torch.optim.SGD(net.parameters(), lr=config.learning_rate, momentum=config.momentum)
         run_best, run_state, stale, epoch = np.inf, None, 0, 0
-        for epoch in range(config.max_epochs):
+        for epoch in range(config.max_epochs):  # noqa: B007 - read after the loop (epochs run)
             perm = torch.randperm(len(X))
             for i in range(0, len(X), config.batch):
                 b = perm[i:i + config.batch]

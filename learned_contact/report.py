@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 from learned_contact.metrics import PAPER_OUTPUT_NAMES, PAPER_TABLE_1, PAPER_TABLE_2
+from learned_contact.predictor import SHIPPED_DIR
 
 _SPLITS = ("train", "validation", "external")
 
@@ -92,7 +93,5 @@ def write_report(metrics: dict, out_dir) -> tuple[Path, Path]:
 def write_shipped_report(out_dir) -> tuple[Path, Path]:
     """Copies the shipped model's figures (shipped/metrics.json) into out_dir as
     metrics.json + report.md (for `testbed` reports without retraining)."""
-    from learned_contact.predictor import SHIPPED_DIR
-
     metrics = json.loads((SHIPPED_DIR / "metrics.json").read_text())
     return write_report(metrics, out_dir)

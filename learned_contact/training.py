@@ -18,9 +18,11 @@ import numpy as np
 
 from learned_contact.encodings import canonicalise, features
 from learned_contact.labels import Dataset, make_dataset
+from learned_contact.metrics import evaluate, paper_table
 from learned_contact.mlp import NumpyMLP
 from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets, predict_paper, train_paper
-from learned_contact.predictor import POINT_STEP, ContactPredictor
+from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
+from learned_contact.report import write_report
 from testbed.containers import CONTAINER_TYPES
 
 SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests use others
@@ -154,9 +156,6 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
     improved predictor and the paper-faithful baseline, evaluates both, and writes to
     out_dir (default learned_contact/shipped): weights.npz, paper_weights.npz,
     config.json, metrics.json and report.md. Returns the metrics dict."""
-    from learned_contact.predictor import SHIPPED_DIR
-    from learned_contact.report import write_report
-
     config = dataclasses.replace(config or TrainConfig(), seed=seed)
     out_dir = Path(out_dir) if out_dir is not None else SHIPPED_DIR
     t0 = time.perf_counter()
@@ -197,8 +196,6 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
 def evaluate_models(predictor: ContactPredictor, paper: NumpyMLP, sets: dict, paper_sets: dict) -> dict:
     """Figures of both models. sets: split -> (general Dataset, stacking Dataset) for the
     improved model; paper_sets: split -> general Dataset for the paper model."""
-    from learned_contact.metrics import evaluate, paper_table
-
     out = {"improved": {}, "paper": {}}
     for split, group in sets.items():
         for ds in group:

@@ -1,9 +1,10 @@
 """`testbed run-all`: every shipped scene under each contact model, one summary report.
 
 For each (scene, contact model) two runs are made in this process, side by side:
-- *bare*: only the scene's physical effects (contact, friction, wind), so the
+- *bare*: only the scene's PHYSICS effects (testbed.effects.Role), so the
   real-time factor is that of the simulation itself;
-- *recorded*: the same plus contact_log and shadow_contact, whose records are kept
+- *recorded*: the same plus every RECORDER effect (contact_log and shadow_contact:
+  Drake's own contact, the ground truth), whose records are kept
   under runs/<scene>-<model>/ and whose summary gives penetration and the
   disagreement between the two contact models.
 The ratio recorded/bare wall time is what per-step ground-truth logging costs.
@@ -14,19 +15,21 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from testbed.effects import registry
+from testbed.effects import Role, registry
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.simulation import run_scenario, write_run
 
-RECORDING_EFFECTS = ("contact_log", "shadow_contact")
-
 
 def _variant(scenario, *, model: str, recorded: bool):
+    """The scene's PHYSICS effects under contact `model`, plus (`recorded`) every RECORDER."""
     s = copy.deepcopy(scenario)
     s.effects.contact.model = model
-    for name in RECORDING_EFFECTS:
-        setattr(s.effects, name, registry()[name].Config() if recorded else None)
+    for name, cls in registry().items():
+        if cls.role is Role.RECORDER:
+            setattr(s.effects, name, cls.study_config() if recorded else None)
+        elif cls.role is not Role.PHYSICS:
+            setattr(s.effects, name, None)
     return s
 
 

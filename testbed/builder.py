@@ -20,10 +20,10 @@ from pydrake.multibody.plant import (
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
 from testbed import model_loading
-from testbed.effects import Effect, ModelPlan, registry
+from testbed.effects import Effect, ModelPlan
 from testbed.errors import ScenarioError
 from testbed.geometry_index import geometry_body_index
-from testbed.scenario import Scenario, validate_scenario
+from testbed.scenario import Scenario, checked_effects
 
 GROUND_NAME = "quay_ground"
 
@@ -77,12 +77,10 @@ class BuiltScene:
 
 
 def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene:
-    """Builds the diagram. Raises ScenarioError for invalid scenes (overlaps included)."""
-    validate_scenario(scenario, source)
-    effects = {
-        name: registry()[name](getattr(scenario.effects, name), scenario, source)
-        for name in scenario.declared_effects()
-    }
+    """Builds the diagram with the effects that were checked (testbed.scenario.checked_effects:
+    those load_scenario checked, else checked now). Raises ScenarioError for invalid scenes
+    (overlaps included)."""
+    effects = checked_effects(scenario, source)
     plan = ModelPlan()
     for effect in effects.values():
         effect.plan(plan)

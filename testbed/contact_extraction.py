@@ -31,6 +31,7 @@ from __future__ import annotations
 import numpy as np
 from pydrake.geometry import HydroelasticContactRepresentation
 
+from testbed.box_geometry import QueryBoxes
 from testbed.contact_geometry import point_on_line_of_action, split_force, static_pressure, surface_face_arrays
 
 HYDRO, POINT = 0, 1
@@ -103,8 +104,6 @@ def near_distances(query) -> dict:
     against the quay slab once a container slides. Penetrating pairs get the exact depth;
     a separated box-box pair gets the separating-axis lower bound on its distance.
     """
-    from testbed.box_geometry import QueryBoxes
-
     key = tuple(query.inspector().GetAllGeometryIds())
     boxes = _BOXES.get(key)
     if boxes is None:

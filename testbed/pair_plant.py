@@ -10,6 +10,9 @@ import re
 
 import numpy as np
 
+from testbed.containers import container_type
+from testbed.model_loading import container_sdf
+
 
 def _rigid(sdf: str) -> str:
     """A container SDF text made rigid_hydroelastic (its modulus dropped)."""
@@ -30,9 +33,6 @@ class ContainerPair:
         from pydrake.multibody.parsing import Parser
         from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ContactModel
         from pydrake.systems.framework import DiagramBuilder
-
-        from testbed.containers import container_type
-        from testbed.model_loading import container_sdf
 
         builder = DiagramBuilder()
         plant, _ = AddMultibodyPlantSceneGraph(builder, time_step=0.0)

@@ -21,6 +21,12 @@ The contact model and discrete approximation are set in `effects.contact`;
 `plant.contact_model` and `plant.discrete_contact_approximation` are derived from
 it (a file may repeat them, as dumped runs do, but they must agree). Everything a run used is written back with
 `dump_scenario` next to its output.
+
+Effect lifecycle: `validate_scenario` constructs and checks the declared effects (a check
+may load what the effect needs, e.g. learned_dynamics's predictor) and returns them;
+`load_scenario` keeps them on the Scenario, and the builder takes those very objects
+(`checked_effects`) while the scenario is unchanged since, once: an effect builds one
+diagram. A copy (copy.deepcopy, pickling) carries no checked effects.
 """
 
 
@@ -40,6 +46,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from testbed.boxes import BOX_TYPE, BoxSpec, ContactProperties, GroundSpec, validate_box, validate_ground  # noqa: F401 (re-exported)
 from testbed.containers import CONTAINER_TYPES, ContainerType
 from testbed.effects import registry
+from testbed.effects.contact import drake_approximation
 from testbed.errors import ScenarioError
 from testbed.scene_yaml import SceneDumper, apply_override, check_raw, parse_override, parse_yaml
 
@@ -114,10 +121,7 @@ def _default_plant() -> MultibodyPlantConfig:
 
 
 def _default_effects():
-    cfg = {name: None for name in registry()}
-    cfg["contact"] = registry()["contact"].Config()
-    cfg["friction"] = registry()["friction"].Config()
-    return Effects(**cfg)
+    return Effects(**{name: cls.Config() if cls.default_on else None for name, cls in registry().items()})
 
 
 def _default_containers() -> list[ContainerSpec]:
@@ -142,7 +146,14 @@ class Scenario:
 
     def declared_effects(self) -> list[str]:
         """Names of the declared effects, in build order."""
-        return [name for name in registry() if getattr(self.effects, name) is not None]
+        return [name for name in registry() if getattr(self.effects, name, None) is not None]
+
+    def __getstate__(self) -> dict:
+        """Copies and pickles leave the checked effects behind (they hold loaded predictors)."""
+        return {k: v for k, v in self.__dict__.items() if k != _CHECKED}
+
+
+_CHECKED = "_checked_effects"  # Scenario attribute: (dump_scenario text, {name: checked Effect})
 
 
 # ----------------------------------------------------------------------------- loading
@@ -157,7 +168,6 @@ def _typed_from_raw(data: dict, source) -> Scenario:
     effects = data.get("effects")
     if effects is not None:
         data["effects"] = {k: (v if v is not None else {}) for k, v in effects.items()}
-    from testbed.effects.contact import drake_approximation
 
     contact = (data.get("effects") or {}).get("contact") or {}
     defaults = registry()["contact"].Config()
@@ -222,16 +232,28 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
                 raise ScenarioError(source, "--set", str(e)) from None
             apply_override(data, parts, value, source)
         scenario = _typed_from_raw(data, f"{source} (with --set overrides)")
-    validate_scenario(scenario, source)
+    effects = validate_scenario(scenario, source)
+    setattr(scenario, _CHECKED, (dump_scenario(scenario), effects))
     return scenario
 
 
-def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None:
-    """Physical and semantic checks that need no diagram (overlaps are checked by the builder)."""
+def checked_effects(scenario: Scenario, source: object = "<scenario>") -> dict:
+    """{name: Effect} to build `scenario` with: the objects `load_scenario` checked, taken
+    (once) if the scenario has not changed since, else newly constructed and checked."""
+    held = scenario.__dict__.pop(_CHECKED, None)
+    if held is not None and held[0] == dump_scenario(scenario):
+        return held[1]
+    return validate_scenario(scenario, source)
+
+
+def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict:
+    """Physical and semantic checks that need no diagram (overlaps are checked by the builder).
+    Returns the declared effects, constructed and checked: {name: Effect}, build order."""
     if not (scenario.duration > 0 and math.isfinite(scenario.duration)):
         raise ScenarioError(source, "duration", f"expected a positive number of seconds, got {scenario.duration}")
     if not scenario.plant.time_step > 0:
-        raise ScenarioError(source, "plant.time_step", f"expected a positive discrete time step [s] (continuous plants are not supported), got {scenario.plant.time_step}")
+        raise ScenarioError(source, "plant.time_step", "expected a positive discrete time step [s] (continuous plants "
+                                                       f"are not supported), got {scenario.plant.time_step}")
     if not scenario.containers:
         raise ScenarioError(source, "containers", "expected at least one container")
     seen: set[str] = set()
@@ -267,6 +289,7 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> None
     effects = {name: registry()[name](getattr(scenario.effects, name), scenario, source) for name in scenario.declared_effects()}
     for effect in effects.values():
         effect.check(effects)
+    return effects
 
 
 # Physically meaningful ranges. Values outside them are typos or unit mistakes, and they
@@ -321,8 +344,6 @@ def dump_scenario(scenario: Scenario) -> str:
 
 def _derive_plant(scenario: Scenario) -> None:
     """The plant's copies of the contact effect's model and (resolved) approximation."""
-    from testbed.effects.contact import drake_approximation
-
     contact = scenario.effects.contact
     scenario.plant.contact_model = contact.model
     scenario.plant.discrete_contact_approximation = drake_approximation(contact.approximation, contact.model)

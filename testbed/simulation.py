@@ -13,6 +13,7 @@ from testbed.builder import BuiltScene, build_scene
 from testbed.errors import SimulationError
 from testbed.records import atomic_directory, save_table, write_json
 from testbed.scenario import Scenario, dump_scenario
+from testbed.watchdog import run_watched
 
 
 @dataclasses.dataclass
@@ -41,7 +42,6 @@ def simulate(scene: BuiltScene, *, duration: float | None = None, progress: bool
     """
     if stall_timeout is None:
         return _simulate_here(scene, duration=duration, progress=progress)
-    from testbed.watchdog import run_watched
 
     duration = scene.scenario.duration if duration is None else duration
     payload = run_watched(scene, lambda report: _payload(_simulate_here(scene, duration=duration, monitor=report)),

@@ -112,7 +112,7 @@ def run_watched(scene, work, *, stall_timeout: float, duration: float, progress:
     """
     if not stall_timeout > 0:
         raise TestbedError(f"stall timeout: expected a positive number of seconds, got {stall_timeout}")
-    if "fork" not in multiprocessing.get_all_start_methods() or "meshcat" in scene.effects:
+    if "fork" not in multiprocessing.get_all_start_methods() or not all(e.forkable for e in scene.effects.values()):
         return _run_here(work, stall_timeout)
     name = scene.scenario.name
     methods = system_methods(scene.diagram)

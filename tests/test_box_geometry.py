@@ -134,8 +134,7 @@ def test_compiled_kernel_matches_the_numpy_reference():
 def test_near_distances_agree_with_drake_on_a_resting_stack():
     from pydrake.systems.analysis import Simulator
 
-    from testbed import build_scene, load_scenario
-    from testbed import contact_extraction as ce
+    from testbed import build_scene, contact_extraction as ce, load_scenario
 
     scene = build_scene(load_scenario("two_stack"))
     context = scene.create_context()

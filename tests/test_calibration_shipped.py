@@ -10,14 +10,13 @@ import re
 import numpy as np
 import pytest
 from pydrake.common.eigen_geometry import Quaternion
+from test_calibration import CALIBRATION_DIR, DATA, DT, _simulated, _synthetic_toss  # noqa: E402  (shared helpers)
 
 from testbed.calibration.data import load_tosses
 from testbed.calibration.evaluate import RolloutPool
 from testbed.calibration.params_file import from_fragment
 from testbed.calibration.rollout import TossSimulator, initial_velocity
 from testbed.calibration.split import train_test_split
-
-from test_calibration import CALIBRATION_DIR, DATA, DT, _simulated, _synthetic_toss  # noqa: E402  (shared helpers)
 
 
 def _readme_figures():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from testbed import load_scenario, run_scenario
-from testbed.effects.crane import Profile, CraneMove
+from testbed.effects.crane import CraneMove, Profile
 
 H = 2.591
 G = 9.81

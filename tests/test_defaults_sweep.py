@@ -12,8 +12,7 @@ import sys
 import pytest
 
 from testbed.document import to_html, to_markdown
-from testbed.studies.defaults import (CRITERIA, TOSS_ERROR_BOUND, Setting, grid, learned_loop_stability,
-                                      report_sections, summarize, sweep)
+from testbed.studies.defaults import CRITERIA, TOSS_ERROR_BOUND, Setting, grid, learned_loop_stability, report_sections, summarize, sweep
 
 SHIPPED = Setting(1e9, "similar", 0.0, 1e-3)  # sdf/README.md: chosen from this sweep
 # 1e5 Pa: a soft foam. Measured: the box sinks about 670 mm into the lower one in 0.5 s (bound 5 mm).

@@ -5,15 +5,13 @@ import copy
 
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
+from test_bad_input import GOOD  # noqa: E402  (the same minimal valid scene)
 
 from testbed import cli
 from testbed.errors import ScenarioError
 from testbed.scenario import BOUNDS, dump_scenario, load_scenario, shipped_scenes
 from testbed.scene_yaml import SceneDumper, SceneLoader
-
-from test_bad_input import GOOD  # noqa: E402  (the same minimal valid scene)
 
 
 def _run_bytes(tmp_path, data: bytes):

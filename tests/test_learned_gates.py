@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.gates import (KNOWN_LIMITS, REPORTED, THRESHOLDS, GeometricPrior, answer_figures, gate_figures,
-                                   held_out, outside_training)
+from learned_contact.gates import KNOWN_LIMITS, REPORTED, THRESHOLDS, GeometricPrior, answer_figures, gate_figures, held_out, outside_training
 from learned_contact.labels import make_dataset
 from learned_contact.metrics import paper_table
 from learned_contact.paper_mlp import PaperConfig, paper_targets, predict_paper, train_paper

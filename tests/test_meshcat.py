@@ -7,8 +7,7 @@ import socket
 import numpy as np
 import pytest
 
-from testbed import ScenarioError, TestbedError, build_scene, load_scenario, simulate
-from testbed import viz as viewer
+from testbed import ScenarioError, TestbedError, build_scene, load_scenario, simulate, viz as viewer
 from testbed.commands.view import view
 from testbed.viz import MeshcatPortError
 

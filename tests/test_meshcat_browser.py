@@ -16,8 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from testbed import build_scene, load_scenario, simulate
-from testbed import viz as viewer
+from testbed import build_scene, load_scenario, simulate, viz as viewer
 
 CHROMIUM_FLAGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -14,8 +14,7 @@ from testbed.scenario import load_scenario
 
 mujoco = pytest.importorskip("mujoco")
 
-from testbed.engines.mujoco import (  # noqa: E402
-    CONTACTS_PER_FACE, UnsupportedSceneError, build_model, mujoco_module, scenario_to_mjcf)
+from testbed.engines.mujoco import CONTACTS_PER_FACE, UnsupportedSceneError, build_model, mujoco_module, scenario_to_mjcf  # noqa: E402
 from testbed.engines.mujoco_run import simulate_mujoco  # noqa: E402
 
 # A scene with every translated feature: three container types, a COM offset, a rotated

@@ -15,9 +15,9 @@ import pytest
 onnx = pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")
 
-from learned_contact import WeightsError, load_predictor
-from learned_contact.gates import OUTSIDE_RANGES
-from learned_contact.onnx_export import (
+from learned_contact import WeightsError, load_predictor  # noqa: E402
+from learned_contact.gates import OUTSIDE_RANGES  # noqa: E402
+from learned_contact.onnx_export import (  # noqa: E402
     export_onnx,
     export_torch_model,
     onnx_session,

@@ -11,7 +11,6 @@ Tolerances (and why):
 
 import numpy as np
 import pytest
-
 from conftest import G, cached_run, last_step
 
 COM_OFFSETS = [[0.0, 0.0, 0.0], [0.8, 0.3, 0.0]]

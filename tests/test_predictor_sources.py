@@ -14,8 +14,13 @@ import pytest
 pytest.importorskip("onnxruntime", reason="pip install onnxruntime==1.30.0")
 
 import bench_models as bm  # noqa: E402
-from learned_contact import PredictorOutputError, WeightsError, load_predictor  # noqa: E402
-from learned_contact import sources  # noqa: E402
+
+from learned_contact import (  # noqa: E402
+    PredictorOutputError,
+    WeightsError,
+    load_predictor,
+    sources,  # noqa: E402
+)
 from learned_contact.gates import GeometricPrior  # noqa: E402
 from learned_contact.interface import CLIP_MARGIN  # noqa: E402
 

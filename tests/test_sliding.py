@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from conftest import cached_run
-from testbed.containers import CONTAINER_TYPES
+
 from testbed.contact_geometry import rotation_from_quaternion
+from testbed.containers import CONTAINER_TYPES
 from testbed.physics import GRAVITY
 
 MODELS = ("hydroelastic", "point")

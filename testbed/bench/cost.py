@@ -17,7 +17,9 @@ import time
 
 import numpy as np
 
+from learned_contact.labels import _pair_scene, _query
 from learned_contact.sources import load_predictor
+from testbed.containers import CONTAINER_TYPES
 
 SINGLE_PAIRS = 200
 BATCH = 1000
@@ -91,8 +93,6 @@ def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:
 
 def drake_point_cost(singles, repeats: int = 3) -> float:
     """Seconds per pair of Drake's point-pair query, pose set each time (labels' pair plants)."""
-    from learned_contact.labels import _pair_scene, _query
-    from testbed.containers import CONTAINER_TYPES
 
     code = {tuple(np.round(t.size, 3)): name for name, t in CONTAINER_TYPES.items()}
     scenes = [_pair_scene(code[tuple(np.round(a, 3))], code[tuple(np.round(b, 3))]) for _, _, a, b in singles]

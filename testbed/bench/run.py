@@ -15,10 +15,10 @@ import time
 from pathlib import Path
 
 from learned_contact.sources import SHIPPED_NAMES, label, load_predictor
-from testbed.bench.accuracy import pose_sets, accuracy
+from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
-from testbed.bench.scenes import (CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop,
-                                  open_loop)
+from testbed.bench.report import write_bench
+from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop, open_loop
 from testbed.errors import TestbedError
 
 SCHEMA = "testbed.bench/1"
@@ -91,7 +91,6 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
            "references": costs["references"], "leaderboard": board, "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
-        from testbed.bench.report import write_bench
 
         write_bench(Path(out_dir), out)
     return out

@@ -17,7 +17,6 @@ import tempfile
 from testbed.compare import compare_predictors
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario
-from testbed.validation.cases.closed_loop import DEFAULT_SCENES as CLOSED_SCENES
 from testbed.validation.cases.closed_loop import ENERGY_FRACTION, GATED, KEYS, RESTING_SCENES, ClosedLoopCase, series_figures
 
 OPEN_SCENES = (("two_stack", 1.0), ("five_stack", 1.0), ("bridge", 1.0), ("nine_mixed_stack", 1.0),
@@ -53,7 +52,7 @@ def closed_loop(specs: list[str], scene: str, duration: float) -> dict:
               "resting": scene in RESTING_SCENES, "largest_potential_drop_J": drop,
               "energy_limit_J": ENERGY_FRACTION * drop}
     kind = ClosedLoopCase()
-    for spec, f in per.items():
+    for f in per.values():
         gates = kind.gates({"id": f"bench-{scene}", "result": {**result, "predictors": {GATED: f}}})
         f["gates"] = [{"name": g.name.split(": ", 2)[-1], "passed": bool(g.passed), "value": g.value,
                        "threshold": g.threshold, "unit": g.unit} for g in gates]

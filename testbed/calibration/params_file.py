@@ -16,6 +16,7 @@ import yaml
 from testbed.calibration.data import CUBE_INERTIA, CUBE_MASS, CUBE_WIDTH
 from testbed.calibration.rollout import CubeTossParams
 from testbed.errors import ScenarioError, TestbedError
+from testbed.scenario import load_scenario
 
 TABLE_SIZE = (20.0, 20.0, 1.0)  # [m] the rollouts' table slab (a half-space would use another box-plane routine)
 _GROUND_KEYS = ("mu_dynamic", "mu_static", "point_contact_stiffness", "hunt_crossley_dissipation", "relaxation_time")
@@ -47,8 +48,6 @@ def to_fragment(params: CubeTossParams, comment: str = "") -> str:
 def from_fragment(path: str | Path) -> CubeTossParams:
     """Reads a params file written by `to_fragment` (or any scene of that shape).
     Raises ScenarioError (file, field, expectation) if it is not one."""
-    from testbed.scenario import load_scenario
-
     path = Path(path)
     scenario = load_scenario(path)
     source = str(path)

@@ -100,6 +100,8 @@ def evaluate_command(args) -> int:
             f"Initial state: {initial} (fitted to the pre-impact frames), NOT the published first-frame protocol.")
         (tmp / "report.md").write_text(report.markdown(f"Cube-toss evaluation: {Path(args.params).name}", {"all": metrics},
                                                        dataclasses.asdict(params), notes))
-    print(f"[initial state: {initial}] " * (initial != "first-frame") + f"position error mean {100 * metrics['position_error_mean']:.2f}%, median {100 * metrics['position_error_median']:.2f}% "
-          f"of cube width over {metrics['n_trajectories']} tosses ({metrics['wall_s']:.1f} s); wrote {args.out}")
+    print(f"[initial state: {initial}] " * (initial != "first-frame")
+          + f"position error mean {100 * metrics['position_error_mean']:.2f}%, "
+          f"median {100 * metrics['position_error_median']:.2f}% of cube width "
+          f"over {metrics['n_trajectories']} tosses ({metrics['wall_s']:.1f} s); wrote {args.out}")
     return 0

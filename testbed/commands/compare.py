@@ -40,16 +40,16 @@ def run(args) -> int:
         from testbed.engines.mujoco_compare import compare_mujoco, format_mujoco_figures
 
         out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-mujoco-{args.params}-{timestamp()}"
-        print(format_mujoco_figures(compare_mujoco(path, params=args.params, out_dir=out, duration=args.duration,
-                                                   replay=not args.no_replay)))
+        print(format_mujoco_figures(compare_mujoco(scenario, params=args.params, out_dir=out, duration=args.duration,
+                                                   replay=not args.no_replay, source=path)))
         print(f"  output: {out}")
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")
     label = sources.label(predictor)
     out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
-    figures = compare_scene(path, predictor=args.predictor, out_dir=out, duration=args.duration,
-                            replay=not args.no_replay)
+    figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
+                            replay=not args.no_replay, source=path)
     print(format_figures(figures))
     print(f"  containers at {law_modulus(scenario):.0e} Pa in every run (the learned law's modulus; shipped SDF: "
           f"{HYDROELASTIC_MODULUS:.0e} Pa, sdf/README.md says why they differ)")

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.viz.replay import finish_recording
+from testbed.viz.server import start_meshcat
 
 
 def write_series(path, runs: dict) -> None:
@@ -46,12 +48,9 @@ def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
 
 def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02) -> None:
     """A self-contained Meshcat replay: learned boxes solid, the truth as translucent ghosts."""
+    from pydrake.common.eigen_geometry import Quaternion
     from pydrake.geometry import Box, Rgba
     from pydrake.math import RigidTransform
-    from pydrake.common.eigen_geometry import Quaternion
-
-    from testbed.viz.replay import finish_recording
-    from testbed.viz.server import start_meshcat
 
     meshcat = start_meshcat(port=0)
     specs = [c for c in scenario.containers if not c.fixed]

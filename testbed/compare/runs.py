@@ -1,8 +1,8 @@
 """Variants of one scene (truth, learned, point) and their recorded trajectories.
 
-A variant keeps the scene's physics effects (contact, friction, wind, crane) and drops
-the recorders and viewers (contact_log, shadow_contact, learned_contact, meshcat), so
-its wall time is the cost of the dynamics alone. Every `record_every` steps the run
+A variant keeps the scene's PHYSICS effects (testbed.effects.Role; contact, friction,
+wind, crane, ...) and drops every recorder, observer and viewer, so its wall time is the
+cost of the dynamics alone. Every `record_every` steps the run
 records, for the m free containers: p_WB (m, 3) [m], q_WB (m, 4) (w, x, y, z),
 V_WB (m, 6) [rad/s, m/s] (angular, linear; of the body origin, in W) and the
 mechanical energy (kinetic + gravity potential) [J].
@@ -18,8 +18,9 @@ import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from testbed.builder import build_scene
-
-RECORDERS = ("contact_log", "shadow_contact", "learned_contact", "meshcat")
+from testbed.effects import Role, registry
+from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+from testbed.learned_force_law import law_modulus
 
 
 def variant(scenario, kind: str, predictor: str | None = None):
@@ -28,17 +29,15 @@ def variant(scenario, kind: str, predictor: str | None = None):
     scene's own learned_dynamics config if it declares one, else "improved"). Every kind
     runs the containers at the learned law's modulus (law_modulus: 1e8 Pa unless the scene
     sets one), not the SDF's 1e9 Pa."""
-    from testbed.effects.learned_dynamics import LearnedDynamicsConfig
-    from testbed.learned_force_law import law_modulus
-
     out = copy.deepcopy(scenario)
     if out.effects.contact is not None and out.effects.contact.hydroelastic_modulus is None:
         # every twin at the learned law's modulus (learned_force_law.KAPPA_MODULUS: its fit, and
         # the stiffest its explicit step takes at 1 ms), not the SDF's: like is compared with like
         out.effects.contact = dataclasses.replace(out.effects.contact, hydroelastic_modulus=law_modulus(out))
-    for name in RECORDERS + ("learned_dynamics",):
-        if hasattr(out.effects, name):
+    for name, cls in registry().items():
+        if cls.role is not Role.PHYSICS and hasattr(out.effects, name):
             setattr(out.effects, name, None)
+    out.effects.learned_dynamics = None  # the 'learned' kind puts its own back
     if kind == "point":
         out.effects.contact = dataclasses.replace(out.effects.contact, model="point")
         out.plant.contact_model = "point"

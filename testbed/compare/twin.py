@@ -6,24 +6,28 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
+from testbed.builder import build_scene
+from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
+from testbed.errors import TestbedError
 from testbed.records import atomic_directory, write_json
+from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
 RECORD_PERIOD = 0.01  # [s] default spacing of the recorded states
 
 
-def _load(scene):
-    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-
+def _load(scene, source=None):
+    """(Scenario, source for messages) of a name, path or loaded Scenario (its `source`)."""
     if isinstance(scene, Scenario):
-        return scene, "<scenario>"
+        return scene, source or "<scenario>"
     path = resolve_scene_path(scene)
     return load_scenario(path), path
 
 
 def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: float | None = None,
-                  with_point: bool = True, replay: bool = True, record_every: int | None = None) -> dict:
+                  with_point: bool = True, replay: bool = True, record_every: int | None = None,
+                  source=None) -> dict:
     """Runs `scene` (a name, path or Scenario) with Drake's contact (the scene's model),
     with the learned closed loop (`predictor`: "improved", "paper" or a weights path; None:
     the scene's learned_dynamics.predictor if it declares the effect, else "improved") and,
@@ -31,21 +35,19 @@ def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: flo
     initial state; writes out_dir/compare.json, trajectories.npz, divergence.png and
     (when `replay`) replay.html atomically, and returns the compare.json figures.
     Raises ScenarioError (bad scene or predictor) before anything is simulated or written.
+    source: the file a loaded Scenario came from (named in error messages).
     """
     (figures,) = compare_predictors(scene, [predictor], out_dirs=[out_dir], duration=duration,
-                                    with_point=with_point, replay=replay, record_every=record_every)
+                                    with_point=with_point, replay=replay, record_every=record_every, source=source)
     return figures
 
 
 def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = None, with_point: bool = True,
-                       replay: bool = True, record_every: int | None = None) -> list[dict]:
+                       replay: bool = True, record_every: int | None = None, source=None) -> list[dict]:
     """compare_scene for each of `predictors`, sharing one truth run (and one point run):
     out_dirs[i] receives predictors[i]'s files. Every scene is built (and so every
     predictor loaded) before anything runs. Returns the figures, in order."""
-    from testbed.builder import build_scene
-    from testbed.errors import TestbedError
-
-    scenario, source = _load(scene)
+    scenario, source = _load(scene, source)
     duration = scenario.duration if duration is None else float(duration)
     if not duration > 0:
         raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
@@ -80,8 +82,6 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
 
 
 def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool) -> None:
-    from testbed.compare import artifacts
-
     with atomic_directory(out_dir) as tmp:
         artifacts.write_series(tmp / "trajectories.npz", runs)
         artifacts.plot_divergence(tmp / "divergence.png", runs["truth"], runs["learned"], scenario.name,

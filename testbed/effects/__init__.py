@@ -5,11 +5,18 @@ modules import heavy optional packages such as torch only inside their hooks).
 """
 
 
-from testbed.effects.base import Effect, ModelPlan
+from testbed.effects.base import Effect, ModelPlan, Role
 from testbed.plugins import PackageRegistry
 
 _REGISTRY = PackageRegistry(__name__, __path__, "effect")
-register = _REGISTRY.register  # class decorator: adds an Effect subclass under `cls.name`
+
+
+def register(cls: type[Effect]) -> type[Effect]:
+    """Class decorator: adds an Effect subclass under `cls.name`; it must declare its Role."""
+    if not isinstance(cls.__dict__.get("role"), Role):
+        raise RuntimeError(f"effect {cls.name!r} ({cls.__module__}): expected a declared `role = Role.<...>` "
+                           f"(one of {', '.join(r.name for r in Role)})")
+    return _REGISTRY.register(cls)
 
 
 def registry() -> dict[str, type[Effect]]:
@@ -17,4 +24,9 @@ def registry() -> dict[str, type[Effect]]:
     return _REGISTRY.entries()
 
 
-__all__ = ["Effect", "ModelPlan", "register", "registry"]
+def with_role(*roles: Role) -> list[str]:
+    """Names of the registered effects whose role is one of `roles`, in build order."""
+    return [name for name, cls in registry().items() if cls.role in roles]
+
+
+__all__ = ["Effect", "ModelPlan", "Role", "register", "registry", "with_role"]

@@ -9,7 +9,7 @@ import math
 import typing
 
 from testbed.effects import register
-from testbed.effects.base import Effect, ModelPlan
+from testbed.effects.base import Effect, ModelPlan, Role
 
 CONTACT_MODELS = ("hydroelastic", "point", "hydroelastic_with_fallback")
 APPROXIMATIONS = ("auto", "sap", "tamsi", "similar", "lagged")
@@ -40,6 +40,9 @@ class ContactConfig:
 class ContactEffect(Effect):
     name = "contact"
     Config = ContactConfig
+    role = Role.PHYSICS
+    default_on = True
+    translated_by = ("mujoco",)
     order = 0
 
     def check(self, effects) -> None:

@@ -29,7 +29,8 @@ from pydrake.systems.framework import LeafSystem
 from testbed import contact_extraction
 from testbed.contact_geometry import cross, quaternion_from_rotation
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
+from testbed.geometry_index import geometry_body_index
 from testbed.physics import GRAVITY  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 from testbed.records import TableBuilder
 
@@ -105,8 +106,6 @@ class ContactLogger(LeafSystem):
     def _geometry(self, context):
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.geometry_index import geometry_body_index
-
             self._owner = geometry_body_index(self._assembly, query)
         poses = self._poses_port.Eval(context)
         velocities = self._velocities_port.Eval(context)
@@ -184,6 +183,7 @@ class ContactLogger(LeafSystem):
 class ContactLogEffect(Effect):
     name = "contact_log"
     Config = ContactLogConfig
+    role = Role.RECORDER
     order = 10
 
     def check(self, effects) -> None:

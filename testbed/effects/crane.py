@@ -26,7 +26,7 @@ from pydrake.multibody.plant import ContactResults, ExternallyAppliedSpatialForc
 from pydrake.systems.framework import LeafSystem
 
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.physics import GRAVITY
 
 
@@ -252,6 +252,9 @@ class CraneSystem(LeafSystem):
 class CraneEffect(Effect):
     name = "crane"
     Config = CraneConfig
+    role = Role.PHYSICS
+    translated_by = ("mujoco",)
+    measured_alone = False  # its defaults carry no container
     order = 25
     requires = ("contact",)
 

@@ -8,7 +8,7 @@ import dataclasses
 import typing
 
 from testbed.effects import register
-from testbed.effects.base import Effect, ModelPlan
+from testbed.effects.base import Effect, ModelPlan, Role
 
 
 @dataclasses.dataclass
@@ -22,6 +22,9 @@ class FrictionConfig:
 class FrictionEffect(Effect):
     name = "friction"
     Config = FrictionConfig
+    role = Role.PHYSICS
+    default_on = True
+    translated_by = ("mujoco",)
     order = 1
     requires = ("contact",)
 

@@ -31,12 +31,13 @@ import typing
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
+from learned_contact import WeightsError, load_predictor  # compiled (numba) inference; no torch
+from learned_contact.interface import SIZE_TOLERANCE
 from testbed.contact_geometry import angle_between
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
 from testbed.records import TableBuilder
-
 
 MIN_PENETRATION = 1e-6  # [m]
 # Recorded steps predicted per predictor call: one batched call amortises the per-call
@@ -164,12 +165,11 @@ def summarize_errors(table: dict, prefix: str = "learned") -> dict:
 class LearnedContactEffect(Effect):
     name = "learned_contact"
     Config = LearnedContactConfig
+    role = Role.OBSERVER
     order = 30
     requires = ("contact", "contact_log")
 
     def add_systems(self, assembly) -> list:
-        from learned_contact import WeightsError, load_predictor  # compiled (numba) inference; no torch
-
         try:
             predictor = load_predictor(self.config.weights)
         except WeightsError as e:
@@ -185,8 +185,6 @@ class LearnedContactEffect(Effect):
     def _check_sizes(self, predictor) -> None:
         """A scene body the predictor was not trained for (e.g. a generic box) fails at build
         time with the entry and the supported sizes named, not mid-run."""
-        from learned_contact.interface import SIZE_TOLERANCE
-
         supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
         for i, c in enumerate(self.scenario.containers):
             size = np.asarray(c.container_type().size, dtype=float)

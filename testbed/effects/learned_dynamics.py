@@ -76,9 +76,11 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
+from learned_contact import WeightsError, load_predictor
 from testbed.containers import CONTAINER_TYPES
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
+from testbed.errors import ScenarioError
 from testbed.learned_force_law import law_modulus, pressure_stiffness, stability_numbers
 from testbed.records import TableBuilder
 
@@ -104,17 +106,9 @@ class LearnedDynamicsConfig:
 
 
 def load_named_predictor(name: str):
-    """`learned_contact.load_predictor(name)`; "improved" falls back to the shipped default
-    on versions that take only paths. Raises learned_contact's WeightsError."""
-    from learned_contact import load_predictor
-    from learned_contact.errors import WeightsError
-
-    try:
-        return load_predictor(name)
-    except WeightsError:
-        if name == "improved":
-            return load_predictor()
-        raise
+    """`learned_contact.load_predictor(name)`: any learned_contact.sources string. Raises
+    learned_contact's WeightsError naming the file or module and what was expected."""
+    return load_predictor(name)
 
 
 class LearnedDynamics(LeafSystem):
@@ -283,6 +277,9 @@ def _empty() -> dict:
 class LearnedDynamicsEffect(Effect):
     name = "learned_dynamics"
     Config = LearnedDynamicsConfig
+    role = Role.PHYSICS
+    untranslated_reason = "the learned contact force law drives Drake's plant only"
+    measured_alone = False  # it replaces Drake's container contact (the closed-loop cases time it)
     order = 22  # before crane (25), which asks it whether its container is seated
     requires = ("contact",)
     STABLE_BELOW = 4.0  # (h w)^2 + 2 h c / m of the explicit symplectic Euler step
@@ -308,6 +305,11 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("mu", f"expected a non-negative friction coefficient, got {c.mu}")
         if self.scenario.plant.time_step <= 0:
             raise self.fail("", "needs a discrete plant (plant.time_step > 0)")
+        for i, spec in enumerate(self.scenario.containers):
+            if spec.type not in CONTAINER_TYPES:  # the law is fitted, the predictors trained, per container size pair
+                raise ScenarioError(self.source, f"containers[{i}].type",
+                                    f"'{spec.name}' is a generic {spec.type!r}; the learned closed loop "
+                                    f"(effects.learned_dynamics) expects container types only: {', '.join(CONTAINER_TYPES)}")
         self._prepare()
 
     def plan(self, plan) -> None:
@@ -317,8 +319,6 @@ class LearnedDynamicsEffect(Effect):
 
     def _prepare(self) -> None:
         """Loads the predictor, lists the pairs, checks the explicit step's stability."""
-        from learned_contact.errors import WeightsError
-
         c = self.config
         try:
             self.predictor = load_named_predictor(c.predictor)

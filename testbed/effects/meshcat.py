@@ -29,7 +29,7 @@ import typing
 
 from testbed import contact_extraction, viz
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.geometry_index import geometry_body_index
 
 
@@ -51,7 +51,13 @@ class MeshcatConfig:
 class MeshcatEffect(Effect):
     name = "meshcat"
     Config = MeshcatConfig
+    role = Role.VIEWER
+    forkable = False  # its server and recording live in this process
     order = 90  # after every effect whose records it draws
+
+    @classmethod
+    def study_config(cls, *, replay: bool = False) -> MeshcatConfig:
+        return MeshcatConfig(port=0, record=replay)  # any free port; never a fixed one in a study
 
     meshcat = None
     replay_html: typing.Optional[str] = None

@@ -19,8 +19,9 @@ from pydrake.systems.framework import LeafSystem
 from testbed import contact_extraction
 from testbed.contact_geometry import angle_between
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
+from testbed.geometry_index import geometry_body_index
 from testbed.records import TableBuilder
 
 
@@ -49,8 +50,6 @@ class ShadowContactProbe(LeafSystem):
     def _record(self, context) -> None:
         query = self._query_port.Eval(context)
         if self._owner is None:
-            from testbed.geometry_index import geometry_body_index
-
             self._owner = geometry_body_index(self._assembly, query)
             self._stiffness = contact_extraction.point_stiffness(query)
         if self._kind == "point":
@@ -83,6 +82,7 @@ def disagreement(truth: dict, other: dict) -> dict:
 class ShadowContactEffect(Effect):
     name = "shadow_contact"
     Config = ShadowContactConfig
+    role = Role.RECORDER
     order = 11
     requires = ("contact",)
 

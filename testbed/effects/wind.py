@@ -19,7 +19,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 from testbed.effects import register
-from testbed.effects.base import Effect
+from testbed.effects.base import Effect, Role
 
 
 @dataclasses.dataclass
@@ -79,6 +79,8 @@ class WindLoad(LeafSystem):
 class WindEffect(Effect):
     name = "wind"
     Config = WindConfig
+    role = Role.PHYSICS
+    translated_by = ("mujoco",)
     order = 20
 
     def check(self, effects) -> None:

@@ -20,8 +20,10 @@ What is translated (Drake side in brackets):
 - wind: the force of testbed/effects/wind.py, applied each step through xfrc_applied at C
   (mujoco_run.py); gravity -GRAVITY z.
 - the crane: the same ropes, trolley profile and twistlock release as testbed/effects/crane.py,
-  as applied forces (mujoco_crane.py); learned_dynamics (and any effect not listed in
-  TRANSLATED_EFFECTS or IGNORED_EFFECTS) raises UnsupportedSceneError;
+  as applied forces (mujoco_crane.py). Effects whose role is not PHYSICS (recorders,
+  observers, viewers: no dynamics) are ignored; a PHYSICS effect whose `translated_by` does
+  not name "mujoco" (learned_dynamics) raises UnsupportedSceneError with its
+  `untranslated_reason`;
 - not translated: contact.hydroelastic_margin (it widens Drake's contact detection only: a
   20 t box rests 16.19 um deep with margin 0, 1e-4 and 1e-3 m alike; MuJoCo's contacts start
   at distance 0), friction's mu_static (Drake's discrete solvers do not use it either).
@@ -84,8 +86,9 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from testbed.effects.contact import drake_approximation
 from testbed.boxes import BOX_TYPE
+from testbed.effects import Role, registry
+from testbed.effects.contact import drake_approximation
 from testbed.errors import OptionalDependencyError, TestbedError, UnknownChoiceError
 from testbed.model_loading import BOX_DEFAULT_PROPERTIES, GROUND_URL, resolve_url, solid_box_inertia
 from testbed.physics import GRAVITY
@@ -98,9 +101,7 @@ MATCHED_IMPEDANCE = 0.1  # smallest d0 of the matched set (see the module docstr
 MATCHED_IMPRATIO = 100.0
 DEFAULT_SOLREF = (0.02, 1.0)  # MuJoCo's defaults, written out for the record
 DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
-TRANSLATED_EFFECTS = ("contact", "friction", "wind", "crane")
-IGNORED_EFFECTS = ("contact_log", "shadow_contact", "meshcat", "learned_contact")  # observers: no dynamics
-UNSUPPORTED_EFFECTS = {"learned_dynamics": "the learned contact force law drives Drake's plant only"}
+ENGINE_NAME = "mujoco"  # what an effect's `translated_by` names when this engine reproduces it
 
 
 class UnsupportedSceneError(TestbedError, ValueError):
@@ -155,8 +156,9 @@ def check_supported(scenario: Scenario) -> None:
                 f"scene '{scenario.name}': containers[{i}].box.corner_spheres is not supported by the MuJoCo "
                 "engine (extra point-contact spheres; MuJoCo's box collision already returns the corners)")
     for name in scenario.declared_effects():
-        if name not in TRANSLATED_EFFECTS + IGNORED_EFFECTS:
-            reason = UNSUPPORTED_EFFECTS.get(name, "no MuJoCo translation of this effect exists yet")
+        cls = registry()[name]
+        if cls.role is Role.PHYSICS and ENGINE_NAME not in cls.translated_by:  # the others have no dynamics
+            reason = cls.untranslated_reason or "no MuJoCo translation of this effect exists yet"
             raise UnsupportedSceneError(
                 f"scene '{scenario.name}': effects.{name} is not supported by the MuJoCo engine: {reason}")
 

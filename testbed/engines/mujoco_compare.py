@@ -18,11 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from testbed.box_geometry import box_box_signed_distance
-from testbed.compare.metrics import error_lines
+from testbed.builder import build_scene
+from testbed.compare import artifacts
+from testbed.compare.metrics import compare_figures, error_lines
+from testbed.compare.runs import Trajectory, run_variant, variant
+from testbed.effects.contact_log import ContactLogConfig
 from testbed.engines.mujoco import check_supported
 from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
 from testbed.physics import percentile_summary
-
+from testbed.records import atomic_directory, write_json
+from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
 RECORD_PERIOD = 0.01  # [s] spacing of the compared states (testbed/compare/twin.py's default)
 
@@ -44,8 +49,6 @@ class SatDepth:
 
 def trajectory_of(run: MujocoRun, every: int):
     """The MuJoCo run as a testbed.compare.runs.Trajectory on the grid of every `every` steps."""
-    from testbed.compare.runs import Trajectory
-
     steps = run.tables["steps"]
     keep = np.flatnonzero(steps["step"] % every == 0)
     energy = steps["kinetic_energy"] + steps["potential_energy"]
@@ -63,8 +66,6 @@ def engine_variant(scenario, kind: str):
     scene's effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
     import dataclasses
 
-    from testbed.compare.runs import variant
-
     out = variant(scenario, kind)
     if out.effects.contact is not None and scenario.effects.contact is not None:
         out.effects.contact = dataclasses.replace(
@@ -75,10 +76,6 @@ def engine_variant(scenario, kind: str):
 def drake_truth(scenario, duration: float, every: int, source="<scenario>"):
     """(Trajectory, contacts table) of Drake's run of the scene's own contact model, with
     contact_log every `every` steps (its wall time includes that logging)."""
-    from testbed.builder import build_scene
-    from testbed.compare.runs import run_variant
-    from testbed.effects.contact_log import ContactLogConfig
-
     logged = engine_variant(scenario, "truth")
     logged.effects.contact_log = ContactLogConfig(every_steps=every)
     scene = build_scene(logged, source)
@@ -132,21 +129,18 @@ def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
 
 def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: float | None = None,
                    with_point: bool = True, bare_truth: bool = True, replay: bool = False,
-                   record_every: int | None = None, time_step: float | None = None) -> dict:
+                   record_every: int | None = None, time_step: float | None = None, source=None) -> dict:
     """Twin run of `scene` (name, path or Scenario): Drake (the scene's contact model, the
     ground truth) and MuJoCo (`params` 'matched' | 'default'). Returns the compare.json
     figures (the learned compare's keys, MuJoCo in the learned slot, plus contact_* and
     wall_per_sim_s_mujoco); writes out_dir/compare.json, trajectories.npz, divergence.png
     (and replay.html when `replay`) atomically when out_dir is given.
     bare_truth: time Drake again without logging (the truth's wall time); with_point: time
-    Drake point contact as well. Raises UnsupportedSceneError before anything runs.
+    Drake point contact as well; source: the file a loaded Scenario came from (for messages).
+    Raises UnsupportedSceneError before anything runs.
     """
-    from testbed.compare.metrics import compare_figures
-    from testbed.compare.runs import run_variant
-    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-
     if isinstance(scene, Scenario):
-        scenario, source = scene, "<scenario>"
+        scenario, source = scene, source or "<scenario>"
     else:
         source = resolve_scene_path(scene)
         scenario = load_scenario(source)
@@ -182,9 +176,6 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     figures["mujoco_max_penetration_m"] = mj_run.summary["max_penetration_m"]
     figures.update(contact_figures(drake_contacts, mj_run.tables["contacts"]))
     if out_dir is not None:
-        from testbed.compare import artifacts
-        from testbed.records import atomic_directory, write_json
-
         with atomic_directory(out_dir) as tmp:
             artifacts.write_series(tmp / "trajectories.npz", runs)
             artifacts.plot_divergence(tmp / "divergence.png", truth, mujoco, scenario.name, f"MuJoCo ({params})")
@@ -218,10 +209,6 @@ def engine_table_row(scene, *, params=("matched", "default"), duration: float | 
     penetration, energy, contact point/normal errors, wall_per_sim_s_mujoco) and the
     speed-ups against Drake's bare hydroelastic and point runs. For the validate section
     "the engine users would pick instead". Raises UnsupportedSceneError (crane scenes)."""
-    from testbed.compare.metrics import compare_figures
-    from testbed.compare.runs import run_variant
-    from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-
     scenario = scene if isinstance(scene, Scenario) else load_scenario(resolve_scene_path(scene))
     check_supported(scenario)
     duration = scenario.duration if duration is None else float(duration)

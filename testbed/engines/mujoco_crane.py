@@ -13,7 +13,6 @@ static initial stretch and damping; the release rule is CraneSystem's), applied 
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from testbed.effects.crane import RopeModel

@@ -26,6 +26,7 @@ import numpy as np
 
 from testbed.effects.wind import projected_area
 from testbed.engines.mujoco import build_model, mujoco_module
+from testbed.engines.mujoco_crane import CraneRopes
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
 
@@ -155,8 +156,6 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
     start_total = time.perf_counter()
     crane = None
     if scenario.effects.crane is not None:
-        from testbed.engines.mujoco_crane import CraneRopes
-
         j_crane = tr.free_names.index(scenario.effects.crane.container)
         crane = CraneRopes(scenario.effects.crane, free[j_crane], model, int(body_ids[j_crane]),
                            model.geom(tr.free_names[j_crane]).id, int(qadr[j_crane]), int(vadr[j_crane]))

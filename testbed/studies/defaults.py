@@ -35,8 +35,19 @@ import math
 import multiprocessing
 import time
 
+from testbed.calibration.data import load_tosses
+from testbed.calibration.evaluate import RolloutPool, summarize as toss_summary
+from testbed.calibration.params_file import from_fragment
+from testbed.calibration.split import train_test_split
+from testbed.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
+from testbed.effects import registry
+from testbed.effects.learned_dynamics import LearnedDynamicsConfig
 from testbed.errors import SimulationError
+from testbed.learned_force_law import pressure_stiffness, stability_numbers
+from testbed.scenario import load_scenario, shipped_scenes
+from testbed.studies import stability
+from testbed.studies.stability import FORCE_BALANCE_TOL, RESTING_DRIFT_PER_MINUTE, check
 
 MODULI = (1e8, 3e8, 1e9, 3e9)  # [Pa]
 APPROXIMATIONS = ("sap", "similar", "lagged")
@@ -90,15 +101,10 @@ def grid(quick: bool = False, moduli=MODULI, approximations=APPROXIMATIONS, marg
 
 def make_case(name: str, setting: Setting, duration: float | None = None):
     """The StressCase `name` under `setting`; duration [s] shortens it (None: the case's own)."""
-    from testbed.scenario import load_scenario
-    from testbed.studies import stability
-
     kw = {"approximation": setting.approximation, "time_step": setting.time_step}
     if name == "near_parallel":
         case = stability.near_parallel(1e-2, **kw)
     elif name in SCENE_CASES:
-        from testbed.effects import registry
-
         resting, bound = SCENE_CASES[name]
         s = load_scenario(name)
         s.plant.time_step = setting.time_step
@@ -128,8 +134,6 @@ def toss_params(setting: Setting):
     beside: the column is evidence on modulus, approximation and step, not a re-fit."""
     from importlib.resources import files
 
-    from testbed.calibration.params_file import from_fragment
-
     params = from_fragment(files("testbed.calibration") / "cube_toss_hydroelastic.yaml")
     params.hydroelastic_modulus, params.approximation = setting.modulus, setting.approximation
     params.hydroelastic_margin, params.time_step = setting.margin, setting.time_step
@@ -139,10 +143,6 @@ def toss_params(setting: Setting):
 
 def run_tosses(setting: Setting, data_path) -> dict:
     """The cube_tosses case: held-out (split 0.5, seed 0) real tosses rolled out under `setting`."""
-    from testbed.calibration.data import load_tosses
-    from testbed.calibration.evaluate import RolloutPool, summarize as toss_summary
-    from testbed.calibration.split import train_test_split
-
     start = time.perf_counter()
     data = load_tosses(data_path)
     _, held_out = train_test_split(data.tosses, 0.5, seed=0)
@@ -156,8 +156,6 @@ def run_tosses(setting: Setting, data_path) -> dict:
 
 def run_pair(setting: Setting, name: str, duration: float | None = None, data_path=None) -> dict:
     """One (setting, case): stability.check's row plus setting, case kind and wall per sim second."""
-    from testbed.studies.stability import check
-
     if name == TOSS_CASE:
         return run_tosses(setting, data_path)
 
@@ -222,8 +220,6 @@ def _worst(values, default=float("nan")):
 def summarize(rows) -> list[dict]:
     """One row per setting: worst figures over its cases and a verdict per criterion
     ('pass', 'FAIL' or 'n/a'). `failures` lists 'case: reason' for every failing case."""
-    from testbed.studies.stability import FORCE_BALANCE_TOL, RESTING_DRIFT_PER_MINUTE
-
     by_setting = {}
     for r in rows:
         key = Setting(**{f.name: r[f.name] for f in dataclasses.fields(Setting) if f.name in r})
@@ -273,11 +269,6 @@ def learned_loop_stability(setting: Setting) -> dict:
     a container pair, with the learned law's stiffness scaled to the setting's modulus and each
     scene at the setting's time step (as the sweep runs its cases): {'worst': (h w)^2 + 2 h c / m,
     'scene': where}."""
-    from testbed.containers import CONTAINER_TYPES
-    from testbed.effects.learned_dynamics import LearnedDynamicsConfig
-    from testbed.learned_force_law import pressure_stiffness, stability_numbers
-    from testbed.scenario import load_scenario, shipped_scenes
-
     worst, where = 0.0, ""
     dissipation = LearnedDynamicsConfig().dissipation
     for name in sorted(shipped_scenes()):
@@ -285,7 +276,8 @@ def learned_loop_stability(setting: Setting) -> dict:
         s.plant.time_step = setting.time_step
         specs = s.containers
         pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs)) if not (specs[i].fixed and specs[j].fixed)]
-        kappa = [pressure_stiffness(specs[i].type, specs[j].type, setting.modulus) for i, j in pairs if specs[i].type in CONTAINER_TYPES and specs[j].type in CONTAINER_TYPES]
+        kappa = [pressure_stiffness(specs[i].type, specs[j].type, setting.modulus) for i, j in pairs
+                 if specs[i].type in CONTAINER_TYPES and specs[j].type in CONTAINER_TYPES]
         if not pairs or len(kappa) != len(pairs):
             continue
         for row in stability_numbers(s, pairs, kappa, dissipation):
@@ -315,7 +307,8 @@ def report_sections(summary, wall_s: float | None = None) -> list[Section]:
            f"crane landings {CRANE_PENETRATION_BOUND * 1e3:g} mm, resting scenes {RESTING_PENETRATION_BOUND * 1e3:g} mm); "
            f"toss error: held-out real cube tosses, mean position error in % of cube width (FAIL above "
            f"{TOSS_ERROR_BOUND * 100:g} %, the published Drake figure); learned loop: the closed loop's explicit "
-           f"step number at this modulus and step, worst shipped scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); cost ratio against the cheapest setting "
+           f"step number at this modulus and step, worst shipped scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); "
+           f"cost ratio against the cheapest setting "
            f"of this sweep failing no physics criterion (FAIL above {COST_FACTOR:g}x)."
            + (f" Sweep wall time {wall_s:.0f} s." if wall_s is not None else ""))
     failures = [f"{o['label']}: " + "; ".join(o["failures"]) for o in summary if o["failures"]]

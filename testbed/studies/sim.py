@@ -4,9 +4,11 @@ In the manner of Erez, Tassa and Todorov (2015, "Simulation tools for model-base
 robotics"): for a scene, sweep the time step, the contact model and the discrete
 approximation; accuracy is the deviation of the trajectory from a fine-step
 reference of the same model and approximation, plus the maximum penetration and the
-energy drift; cost is wall time per simulated second. `effect_costs` measures what
-each effect costs: wall time with one effect switched on against the bare scene, the
-two runs made side by side in one process.
+energy drift; cost is wall time per simulated second. Each sweep point keeps the
+scene's PHYSICS effects (testbed.effects.Role: contact, friction, wind, the crane, ...)
+and drops its recorders, observers and viewers. `effect_costs` measures what each
+effect costs: wall time with one effect switched on against the bare scene (its
+`default_on` effects), the two runs made side by side in one process.
 
 Trajectories are sampled every `SAMPLE_PERIOD` by advancing the simulator to each
 sample time (no logging system is added, so the timing is the bare simulation's).
@@ -22,24 +24,29 @@ import time
 
 import numpy as np
 
-from testbed.effects.contact import drake_approximation
 from testbed.builder import build_scene
 from testbed.contact_extraction import near_distances
-from testbed.effects import registry
+from testbed.effects import Role, registry
+from testbed.effects.contact import drake_approximation
+from testbed.engines.mujoco import check_supported, mujoco_module
+from testbed.engines.mujoco_run import sampled_run_mujoco
+from testbed.errors import OptionalDependencyError, TestbedError
 from testbed.scenario import Scenario, load_scenario
+from testbed.simulation import simulate
 
 SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
 MUJOCO_TIMING_REPEATS = 3  # MuJoCo sweep points: the fastest of this many identical runs is timed
 
 
 def configure(scenario: Scenario, *, model: str, approximation: str, time_step: float,
-              duration: float, keep_effects=("contact", "friction", "wind")) -> Scenario:
-    """A copy of `scenario` with the given contact settings and only `keep_effects`."""
+              duration: float, keep_effects=None) -> Scenario:
+    """A copy of `scenario` with the given contact settings and only `keep_effects`
+    (names; None: every PHYSICS effect the scene declares)."""
     s = copy.deepcopy(scenario)
     s.duration = duration
     s.plant.time_step = time_step
-    for name in registry():
-        if name not in keep_effects:
+    for name, cls in registry().items():
+        if (cls.role is not Role.PHYSICS) if keep_effects is None else (name not in keep_effects):
             setattr(s.effects, name, None)
     s.effects.contact.model = model
     s.effects.contact.approximation = approximation
@@ -137,8 +144,6 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
     scene it cannot translate gives rows with status "unavailable: <why>"."""
     unknown = set(engines) - {"drake", "mujoco"}
     if unknown:
-        from testbed.errors import TestbedError
-
         raise TestbedError(f"engines: unknown {sorted(unknown)}; expected 'drake' and/or 'mujoco'")
     base = load_scenario(scene)
     rows, references = [], {}
@@ -168,15 +173,10 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
 
 def _mujoco_rows(base, scene, time_steps, duration, reference_step, params_sets, reference_of) -> list[dict]:
     """The MuJoCo sweep rows (see sweep); the reference is Drake's, of the scene's own model."""
-    from testbed.errors import OptionalDependencyError
-
     model, approximation = base.effects.contact.model, base.effects.contact.approximation
     head = {"scene": scene, "engine": "mujoco", "model": "mujoco", "reference_step": reference_step,
             "reference": f"drake {model} {approximation} h={reference_step:g}"}
     try:
-        from testbed.engines.mujoco import check_supported, mujoco_module
-        from testbed.engines.mujoco_run import sampled_run_mujoco
-
         mujoco_module()
         check_supported(base)
     except (ImportError, OptionalDependencyError, ValueError) as e:  # UnsupportedSceneError is a ValueError
@@ -198,17 +198,22 @@ def _mujoco_rows(base, scene, time_steps, duration, reference_step, params_sets,
     return rows
 
 
-def effect_costs(scene: str, *, effects=("contact_log", "shadow_contact", "learned_contact", "wind", "meshcat"),
-                 duration: float = 0.5, repeats: int = 2) -> list[dict]:
+def effect_costs(scene: str, *, effects=None, duration: float = 0.5, repeats: int = 2) -> list[dict]:
     """Wall-time ratio (scene + one effect) / (bare scene), measured side by side.
 
-    "Bare" keeps only contact and friction. Effects that need others (learned_contact
-    needs contact_log) are measured with what they need, and the row says so. The
-    minimum over `repeats` alternating runs of each is used (least disturbed by noise).
+    effects: names; None: every registered effect that is not `default_on` and is
+    `measured_alone` (recorders, observers, viewers, wind). "Bare" keeps only the
+    `default_on` effects (contact and friction). Effects that need others
+    (learned_contact needs contact_log) are measured with what they need, and the row
+    says so. Each effect is switched on with its `study_config()`. The minimum over
+    `repeats` alternating runs of each is used (least disturbed by noise).
     """
+    if effects is None:
+        effects = [n for n, cls in registry().items() if not cls.default_on and cls.measured_alone]
     base = load_scenario(scene)
     bare = configure(base, model=base.effects.contact.model, approximation=base.effects.contact.approximation,
-                     time_step=base.plant.time_step, duration=duration, keep_effects=("contact", "friction"))
+                     time_step=base.plant.time_step, duration=duration,
+                     keep_effects=[n for n, cls in registry().items() if cls.default_on])
     rows = []
     for name in effects:
         if name not in registry():
@@ -218,9 +223,7 @@ def effect_costs(scene: str, *, effects=("contact_log", "shadow_contact", "learn
         variant = copy.deepcopy(bare)
         needed = [n for n in cls.requires if getattr(variant.effects, n) is None]
         for n in needed + [name]:
-            setattr(variant.effects, n, registry()[n].Config())
-        if name == "meshcat":
-            variant.effects.meshcat.port = 0  # any free port; never a fixed one in a study
+            setattr(variant.effects, n, registry()[n].study_config())
         times = {"bare": [], "effect": []}
         try:
             for _ in range(repeats):
@@ -235,8 +238,6 @@ def effect_costs(scene: str, *, effects=("contact_log", "shadow_contact", "learn
 
 
 def _wall(scenario: Scenario) -> float:
-    from testbed.simulation import simulate
-
     scene = build_scene(scenario)
     result = simulate(scene)
     return result.summary["wall_time_s"]

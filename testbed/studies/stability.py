@@ -30,6 +30,7 @@ from testbed.effects.contact import drake_approximation
 from testbed.errors import SimulationError
 from testbed.physics import GRAVITY
 from testbed.scenario import ContainerSpec, Scenario, load_scenario
+from testbed.simulation import run_scenario
 
 ENERGY_TOLERANCE = 1e-3  # [-] of m_total g x 1 m
 RESTING_DRIFT_PER_MINUTE = 1e-3  # [m]
@@ -195,8 +196,6 @@ def run_matrix_entry(name: str, kw: dict) -> dict:
 
 def check(case: StressCase) -> dict:
     """Simulates a case and returns its figures and verdicts ({'stable': bool, ...})."""
-    from testbed.simulation import run_scenario
-
     scenario = case.scenario
     out = {"case": case.name, "model": scenario.effects.contact.model,
            "approximation": scenario.effects.contact.approximation, "time_step": scenario.plant.time_step}

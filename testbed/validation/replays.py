@@ -4,11 +4,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from testbed.effects import Role, registry
 from testbed.records import write_atomic
+from testbed.scenario import load_scenario
+from testbed.simulation import run_scenario
 from testbed.validation.cases.scene import worst_learned
 
-RECORDING = ("effects.contact_log={}", "effects.shadow_contact={}", "effects.learned_contact={}",
-             "effects.meshcat={port: 0, record: true}")
+
+def with_recording(scenario):
+    """`scenario` with every recorder, observer and viewer switched on as for a replay
+    (each effect's `study_config(replay=True)`: the Meshcat viewer records replay.html)."""
+    for name, cls in registry().items():
+        if cls.role is not Role.PHYSICS:
+            setattr(scenario.effects, name, cls.study_config(replay=True))
+    return scenario
 
 
 def write_worst_replays(run_dir: Path, records: list[dict], n: int) -> None:
@@ -21,11 +30,8 @@ def write_worst_replays(run_dir: Path, records: list[dict], n: int) -> None:
         if (out / "replay.html").exists():
             continue
         try:
-            from testbed.scenario import load_scenario
-            from testbed.simulation import run_scenario
-
             p = r["params"]
-            scenario = load_scenario(p["scene"], overrides=[f"effects.contact.model={p['model']}", *RECORDING])
+            scenario = with_recording(load_scenario(p["scene"], overrides=[f"effects.contact.model={p['model']}"]))
             scenario.simulator.target_realtime_rate = 0.0  # as fast as possible
             run_scenario(scenario, out_dir=out, duration=p["duration"], progress=False)  # the effect writes replay.html
         except Exception as e:  # the report says why instead of losing the run

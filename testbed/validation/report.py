@@ -50,10 +50,10 @@ def evaluate_gates(records: list[dict]) -> list[Gate]:
 
 
 def _environment() -> dict:
+    from importlib import metadata
+
     import numpy
     import pydrake
-
-    from importlib import metadata
 
     try:  # pydrake has no __version__; the installed distribution knows it
         drake_version = metadata.version("drake")

@@ -17,6 +17,7 @@ import shutil
 import time
 from pathlib import Path
 
+from learned_contact import sources
 from testbed.errors import TestbedError
 from testbed.records import write_atomic
 from testbed.validation import suites
@@ -68,7 +69,6 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
 def _checked_predictors(predictors) -> list[str]:
     """The predictors as learned_contact.sources strings that workers can load (files as
     absolute paths), each loaded once here so that a bad one fails before anything runs."""
-    from learned_contact import sources
 
     out = []
     for spec in predictors:

@@ -6,12 +6,10 @@ runs a scene with that effect. Importing this package starts nothing.
 """
 
 from testbed.viz.camera import frame_period, set_camera_for
-from testbed.viz.colours import (HYDRO_FORCE_RGB, HYDRO_MOMENT_RGB, MARKER_RGB, N_BINS, NEUTRAL_RGB,
-                                 POINT_FORCE_RGB, bin_of, bin_rgb, error_fraction)
+from testbed.viz.colours import HYDRO_FORCE_RGB, HYDRO_MOMENT_RGB, MARKER_RGB, N_BINS, NEUTRAL_RGB, POINT_FORCE_RGB, bin_of, bin_rgb, error_fraction
 from testbed.viz.overlays import LAYERS, OVERLAY_ROOT, CranePainter, GlyphSizes, OverlayPainter, frame_along
 from testbed.viz.replay import REPLAY_NAME, finish_recording, write_replay
-from testbed.viz.server import (DEFAULT_PORT, MeshcatPortError, exposure_warning, is_loopback_host,
-                                listening_addresses, start_meshcat)
+from testbed.viz.server import DEFAULT_PORT, MeshcatPortError, exposure_warning, is_loopback_host, listening_addresses, start_meshcat
 from testbed.viz.sources import LEARNED_EFFECT, TableSource, learned_source
 
 __all__ = ["CranePainter", "DEFAULT_PORT", "GlyphSizes", "HYDRO_FORCE_RGB", "HYDRO_MOMENT_RGB", "LAYERS",

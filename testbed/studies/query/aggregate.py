@@ -52,7 +52,7 @@ def pareto_front(points: dict) -> list[str]:
     """Names not dominated in (time, error): {name: (time, error)} -> sorted by time."""
     items = sorted((t, e, k) for k, (t, e) in points.items() if t is not None and e is not None)
     front, best = [], math.inf
-    for t, e, k in items:
+    for _t, e, k in items:
         if e < best:
             front.append(k)
             best = e

@@ -67,7 +67,7 @@ def measure_set(poses, methods: list[ContactMethod], repeats: int, *, progress: 
             p, nr, c = m.single(i)  # warm-up, and the answer
             point[i], normal[i] = p, nr
             count[i] = -1 if c is None else c
-            q_ns[i] = _min_ns(lambda: m.single(i), repeats)
+            q_ns[i] = _min_ns(lambda m=m, i=i: m.single(i), repeats)
             if k_ns is not None:
                 fn = m.prepare_kernel(i)
                 fn()

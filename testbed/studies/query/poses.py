@@ -8,7 +8,8 @@ Pose sets (A at the origin; container types 1CC, 1AA, 1AAA)
   on A, yaw a multiple of pi, centred within +-0.1 m, tilted about a random horizontal
   axis by angles log-spaced from 1e-5 to 1e-1 rad, penetration 0.1 to 5 mm.
 The reference answer of every pose is Drake's static hydroelastic centre of pressure
-and pressure-weighted normal (compliant-compliant, E as shipped: 1e9 Pa; the point and normal do not change when both moduli scale together; learned_contact/labels.py).
+and pressure-weighted normal (compliant-compliant, E as shipped: 1e9 Pa; the point and
+normal do not change when both moduli scale together; learned_contact/labels.py).
 """
 
 from __future__ import annotations
@@ -16,6 +17,12 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+
+from learned_contact import cache
+from learned_contact.geometry import rotation_from_rpy
+from learned_contact.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
+from learned_contact.sampling import Proposals
+from testbed.containers import CONTAINER_TYPES
 
 POSE_SETS = ("stacking", "general", "near_parallel")
 TYPES = ("1CC", "1AA", "1AAA")
@@ -51,8 +58,6 @@ class PoseSet:
         return len(self.depth)
 
 def _type_codes(sizes) -> np.ndarray:
-    from testbed.containers import CONTAINER_TYPES
-
     table = {tuple(np.round(t.size, 6)): code for code, t in CONTAINER_TYPES.items()}
     return np.array([table[tuple(np.round(s, 6))] for s in sizes])
 
@@ -66,9 +71,6 @@ def _from_dataset(name: str, ds, tilt=None) -> PoseSet:
 def near_parallel_proposals(n: int, seed: int):
     """n proposals (learned_contact.sampling.Proposals) of the near-parallel worst case
     and their tilts (n,) [rad] (see the module docstring)."""
-    from learned_contact.geometry import rotation_from_rpy
-    from learned_contact.sampling import Proposals
-
     rng = np.random.default_rng([seed, 99])
     kind = rng.integers(len(TYPES), size=n)
     tilt = np.geomspace(*TILT_RANGE, n) if n > 1 else np.array([TILT_RANGE[0]])
@@ -85,9 +87,6 @@ def near_parallel_proposals(n: int, seed: int):
 def make_pose_sets(n_poses: int, seed: int, *, progress: bool = True, use_cache: bool = True) -> dict:
     """{name: PoseSet} for POSE_SETS, n_poses proposals each (poses without a contact
     surface are dropped and counted). Labels are cached (learned_contact.cache)."""
-    from learned_contact import cache
-    from learned_contact.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
-
     s = 10 * seed + STUDY_SEED_OFFSET
     out = {}
     for dist in ("stacking", "general"):

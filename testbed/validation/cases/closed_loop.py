@@ -14,9 +14,10 @@ from __future__ import annotations
 import math
 
 from learned_contact import sources
+from testbed.compare import compare_predictors
 from testbed.containers import HYDROELASTIC_MODULUS
-from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.document import Bullets, Section, Text, table
+from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 
@@ -113,8 +114,6 @@ class ClosedLoopCase(CaseKind):
 
     def run(self, scene: str, duration: float, predictors=PREDICTORS) -> dict:
         import tempfile
-
-        from testbed.compare import compare_predictors
 
         with tempfile.TemporaryDirectory(prefix="closed-loop-") as tmp:
             dirs = [f"{tmp}/{p}" for p in predictors]
@@ -225,7 +224,8 @@ def _num(value, scale=1.0, fmt=".3g") -> str:
 
 
 def _row(s: dict, name: str, f: dict) -> tuple:
-    return (s["scene"], sources.label(name) + ("" if name in PREDICTORS else " (reported, not gated)"), _num(f["simulated_s_learned"], fmt="g"), "yes" if f["diverged"] else "no",
+    shown = sources.label(name) + ("" if name in PREDICTORS else " (reported, not gated)")
+    return (s["scene"], shown, _num(f["simulated_s_learned"], fmt="g"), "yes" if f["diverged"] else "no",
             _num(f["final_position_error_max_m"], 1e3), _num(f["final_angle_error_max_deg"]),
             _num(f["max_penetration_m"], 1e3), f"{_num(f['energy_gain_gated_J'])} ({_num(s['energy_limit_J'])})",
             _drift(s, f),

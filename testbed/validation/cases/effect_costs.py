@@ -6,6 +6,7 @@ and time ratios that parallel cases would disturb. Section: a bar chart and a li
 from __future__ import annotations
 
 from testbed.document import Bullets, Figure, Section, png, pyplot
+from testbed.studies.sim import effect_costs
 from testbed.validation.cases import Case, CaseKind, register
 
 
@@ -25,8 +26,6 @@ class EffectCostsCase(CaseKind):
         return []
 
     def run(self, scene: str, duration: float) -> dict:
-        from testbed.studies.sim import effect_costs
-
         return {"scene": scene, "rows": effect_costs(scene, duration=duration)}
 
     def sections(self, records: list[dict]) -> list[Section]:

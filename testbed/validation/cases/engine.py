@@ -20,6 +20,9 @@ from __future__ import annotations
 import math
 
 from testbed.document import Section, Text, table
+from testbed.engines.mujoco import UnsupportedSceneError, mujoco_module
+from testbed.engines.mujoco_compare import engine_table_row
+from testbed.errors import OptionalDependencyError
 from testbed.validation.cases import Case, CaseKind, register
 
 SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
@@ -49,11 +52,7 @@ def engine_cases(scenes) -> list[Case]:
 
 def unavailable_reason() -> str | None:
     """Why the MuJoCo engine cannot run here (its install command), or None."""
-    from testbed.errors import OptionalDependencyError
-
     try:
-        from testbed.engines.mujoco import mujoco_module
-
         mujoco_module()
     except (ImportError, OptionalDependencyError) as e:
         return str(e).strip().splitlines()[0]
@@ -80,8 +79,6 @@ class EngineCase(CaseKind):
         reason = unavailable_reason()
         if reason is not None:
             return {"scene": scene, "available": False, "reason": reason}
-        from testbed.engines.mujoco import UnsupportedSceneError
-        from testbed.engines.mujoco_compare import engine_table_row
 
         try:
             row = engine_table_row(scene, params=PARAMS, duration=duration)

@@ -6,6 +6,9 @@ reported in a section of their own beside the shipped predictor's figures, not g
 
 from __future__ import annotations
 
+from learned_contact import sources
+from learned_contact.gates import evaluate_gates
+from testbed.document import Section, Text, table
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 
@@ -19,8 +22,6 @@ class LearnedGatesCase(CaseKind):
         return [Case("learned-gates", "learned_gates", {"seed": 0})] if suite in ("default", "full") else []
 
     def with_predictors(self, cases: list[Case], predictors: list[str]) -> list[Case]:
-        from learned_contact import sources
-
         if not cases:
             return cases
         seed = cases[0].params["seed"]
@@ -28,8 +29,6 @@ class LearnedGatesCase(CaseKind):
                         for p in predictors]
 
     def run(self, seed: int, predictor=None) -> dict:
-        from learned_contact.gates import evaluate_gates
-
         return {**evaluate_gates(seed=seed, predictor_path=predictor), "predictor": predictor}
 
     def gates(self, record: dict) -> list[Gate]:
@@ -39,9 +38,6 @@ class LearnedGatesCase(CaseKind):
                      g.get("description", "")) for g in record["result"].get("gates", [])]
 
     def sections(self, records: list[dict]) -> list:
-        from learned_contact import sources
-        from testbed.document import Section, Text, table
-
         shipped = [r for r in records if r["result"].get("predictor") is None]
         added = [r for r in records if r["result"].get("predictor") is not None]
         if not added:

@@ -6,6 +6,7 @@ report is written. Section: the chart and the study's own sections."""
 from __future__ import annotations
 
 from testbed.document import Section
+from testbed.studies.query import render, run_query_study
 from testbed.validation.cases import Case, CaseKind, register
 
 
@@ -28,8 +29,6 @@ class QueryStudyCase(CaseKind):
         import tempfile
         from pathlib import Path
 
-        from testbed.studies.query import run_query_study
-
         with tempfile.TemporaryDirectory() as tmp:
             return {"metrics": run_query_study(Path(tmp), quick=quick, seed=seed, progress=False,
                                                extra_predictors=tuple(predictors))}
@@ -37,7 +36,6 @@ class QueryStudyCase(CaseKind):
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
             return []
-        from testbed.studies.query import render
 
         metrics = records[0]["result"]["metrics"]
         chart = render.chart_png(metrics)

@@ -8,6 +8,10 @@ Sections: the predictor's worst case (near the verdict) and the table of scenes.
 from __future__ import annotations
 
 from testbed.document import Section, Text, table
+from testbed.effects import registry
+from testbed.physics import GRAVITY
+from testbed.scenario import load_scenario, shipped_scenes
+from testbed.simulation import run_scenario
 from testbed.validation.cases import Case, CaseKind, ok_records, register
 from testbed.validation.gates import Gate
 
@@ -74,25 +78,16 @@ class SceneCase(CaseKind):
         if suite == "default":
             return scene_cases(DEFAULT_SCENES, MODELS, None)
         if suite == "full":
-            from testbed.scenario import shipped_scenes
-
             return scene_cases(sorted(shipped_scenes()), (*MODELS, "hydroelastic_with_fallback"), None)
         return []
 
     def run(self, scene: str, model: str, duration: float) -> dict:
         import numpy as np
 
-        from testbed.effects import registry
-        from testbed.physics import GRAVITY
-        from testbed.scenario import load_scenario
-        from testbed.simulation import run_scenario
-
         scenario = load_scenario(scene, overrides=[f"effects.contact.model={model}", "effects.contact_log={}",
                                                     "effects.shadow_contact={}"])
         learned_available = True
         try:
-            import learned_contact  # noqa: F401  (numpy-only)
-
             scenario.effects.learned_contact = registry()["learned_contact"].Config()
         except Exception:
             learned_available = False

@@ -11,7 +11,9 @@ from __future__ import annotations
 import math
 
 from testbed.document import Figure, Section, Text, png, pyplot, table
+from testbed.studies.sim import sweep
 from testbed.validation.cases import Case, CaseKind, register
+from testbed.validation.cases.engine import SECTION_ORDER
 
 SCENE_MODEL = "hydroelastic_with_fallback"  # the shipped scenes' own contact model (their ground truth)
 # Time steps of the engine sweeps: each divides the 10 ms sample period, so both engines
@@ -54,8 +56,6 @@ class SimSweepCase(CaseKind):
         return []
 
     def run(self, scene, models, approximations, time_steps, reference_step, duration, engines=("drake",)) -> dict:
-        from testbed.studies.sim import sweep
-
         return {"rows": sweep(scene, models=models, approximations=approximations, time_steps=time_steps,
                               reference_step=reference_step, duration=duration, engines=tuple(engines))}
 
@@ -86,8 +86,6 @@ def engine_chart_section(rows) -> Section:
     """The speed-accuracy chart of the engine sweeps (Drake and MuJoCo on one chart), placed
     right after the engine kind's section "The engine users would pick instead" (untitled,
     so it reads as that section's chart)."""
-    from testbed.validation.cases.engine import SECTION_ORDER
-
     scenes = sorted({r["scene"] for r in rows})
     return Section(None, [
         Text(f"Speed against accuracy, Drake and MuJoCo over one time-step sweep ({', '.join(scenes)}): error is the RMS "

@@ -4,6 +4,7 @@ cases of PER_CASE grid entries. Section: the unstable entries (brief) and the ma
 from __future__ import annotations
 
 from testbed.document import Bullets, Section, Text, table
+from testbed.studies.stability import matrix_cases, run_matrix_entry, stability_matrix
 from testbed.validation.cases import Case, CaseKind, register
 
 PER_CASE = 6  # grid entries per case
@@ -11,8 +12,6 @@ PER_CASE = 6  # grid entries per case
 
 def stability_cases(quick: bool, per_case: int = PER_CASE) -> list[Case]:
     """The stability matrix split into cases of `per_case` grid entries each."""
-    from testbed.studies.stability import matrix_cases
-
     grid = [[name, kw] for name, kw in matrix_cases(quick=quick)]
     return [Case(f"stability-{i // per_case:02d}", "stability", {"entries": grid[i:i + per_case]})
             for i in range(0, len(grid), per_case)]
@@ -27,13 +26,9 @@ class StabilityCase(CaseKind):
         return stability_cases(quick=suite == "default") if suite in ("default", "full") else []
 
     def run(self, entries) -> dict:
-        from testbed.studies.stability import run_matrix_entry
-
         return {"rows": [run_matrix_entry(name, kw) for name, kw in entries]}
 
     def sections(self, records: list[dict]) -> list[Section]:
-        from testbed.studies.stability import stability_matrix
-
         rows = [row for r in records for row in r["result"]["rows"]]
         if not rows:
             return []

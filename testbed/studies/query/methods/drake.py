@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from testbed.contact_geometry import static_pressure, surface_face_arrays
 from testbed.pair_plant import ContainerPair
 from testbed.studies.query.methods.base import ContactMethod
 
@@ -69,7 +70,6 @@ class DrakeBoxPair(ContainerPair):
             pp = pairs[0]
             flip = -1.0 if pp.id_A == self.gid_a else 1.0  # nhat_BA_W: out of Drake's B into its A
             return DrakeAnswer(0.5 * (pp.p_WCa + pp.p_WCb), flip * pp.nhat_BA_W, len(pairs))
-        from testbed.contact_geometry import static_pressure, surface_face_arrays
 
         surfaces = query.ComputeContactSurfaces(self._poly)
         if not surfaces:
