@@ -4,11 +4,13 @@
 
 Both runs are the scene with `learned_dynamics` (default config: the shadow truth on);
 the bare one drops the recorders (contact_log, shadow_contact, learned_contact, meshcat),
-the logged one keeps the scene's contact_log (adds one if it has none). Each is built
-once and simulated `repeats` times alternately (bare, logged, bare, ...) in this process;
-the wall time [s] is testbed.simulation's (the simulator's steps plus the effects'
-collect). Prints each run's median and the median of the pairwise ratios logged / bare.
-Not a test: machines are noisy, so no figure here is asserted anywhere.
+the logged one keeps the scene's contact_log (adds one if it has none); a third, the
+logged run with `shadow_truth: false`, separates the logger's own cost from the truth's.
+Each is built afresh and simulated `repeats` times in turn (bare, logged, logged without
+truth, bare, ...) in this process; the wall time [s] is that of the whole
+testbed.simulation.simulate call (the simulator's steps, the effects' collect and
+summaries), perf_counter. Prints each run's median and the median of the ratios to the
+bare run of the same repeat. Not a test: machines are noisy, so no figure here is asserted.
 """
 
 from __future__ import annotations
@@ -30,27 +32,46 @@ def scenes(scene: str, duration: float):
     return bare, load_scenario(scene, overrides=logged_over)
 
 
-def measure(scene: str = "nine_mixed_stack", duration: float = 1.0, repeats: int = 3) -> dict:
-    """{'bare_s': [...], 'logged_s': [...], 'ratio': [...], 'truth_rows': int, 'rows': int}:
-    wall times [s] of each repeat and the pairwise ratios logged / bare."""
-    import numpy as np
+def measure(scene: str = "nine_mixed_stack", duration: float = 1.0, repeats: int = 3,
+            truth_every_steps: int | None = None) -> dict:
+    """{'bare_s', 'logged_s', 'no_truth_s': [...] wall times [s] per repeat, 'ratio',
+    'no_truth_ratio': [...] each over the same repeat's bare run, 'rows', 'truth_rows':
+    the logged run's closed_loop rows and those with a truth answer}.
+    truth_every_steps: the shadow truth's period (None: the effect's default)."""
+    import dataclasses
+    import time
 
     from testbed.builder import build_scene
     from testbed.simulation import simulate
 
     bare, logged = scenes(scene, duration)
-    out = {"bare_s": [], "logged_s": [], "ratio": []}
+    if truth_every_steps is not None:
+        logged.effects.learned_dynamics = dataclasses.replace(logged.effects.learned_dynamics,
+                                                              truth_every_steps=truth_every_steps)
+    no_truth = copy_without_truth(logged)
+    out = {"bare_s": [], "logged_s": [], "no_truth_s": []}
     for _ in range(repeats):
-        b = simulate(build_scene(bare, scene)).summary["wall_time_s"]
-        result = simulate(build_scene(logged, scene))
-        w = result.summary["wall_time_s"]
-        out["bare_s"].append(b)
-        out["logged_s"].append(w)
-        out["ratio"].append(w / b)
-    table = result.tables.get("closed_loop", {})
+        for key, scenario in (("bare_s", bare), ("logged_s", logged), ("no_truth_s", no_truth)):
+            built = build_scene(scenario, scene)
+            start = time.perf_counter()
+            result = simulate(built)
+            out[key].append(time.perf_counter() - start)
+            if key == "logged_s":
+                table = result.tables.get("closed_loop", {})
+    out["ratio"] = [w / b for w, b in zip(out["logged_s"], out["bare_s"])]
+    out["no_truth_ratio"] = [w / b for w, b in zip(out["no_truth_s"], out["bare_s"])]
     out["rows"] = int(len(table.get("a", ())))
-    if "fn_truth" in table:
-        out["truth_rows"] = int(np.count_nonzero(np.isfinite(table["fn_truth"])))
+    out["truth_rows"] = int(table["has_truth"].sum()) if "has_truth" in table else None
+    out["truth_every_steps"] = logged.effects.learned_dynamics.truth_every_steps
+    return out
+
+
+def copy_without_truth(scenario):
+    import copy
+    import dataclasses
+
+    out = copy.deepcopy(scenario)
+    out.effects.learned_dynamics = dataclasses.replace(out.effects.learned_dynamics, shadow_truth=False)
     return out
 
 
@@ -59,13 +80,22 @@ def main(argv=None) -> int:
     parser.add_argument("scene", nargs="?", default="nine_mixed_stack")
     parser.add_argument("--duration", type=float, default=1.0, help="simulated time [s] (default 1)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--truth-every-steps", type=int, default=None,
+                        help="the shadow truth's period in steps (default: the effect's)")
     args = parser.parse_args(argv)
-    m = measure(args.scene, args.duration, args.repeats)
-    print(f"{args.scene}, {args.duration:g} s simulated, {args.repeats} pairs (bare, logged) in one process")
-    print(f"  bare learned run:  median {statistics.median(m['bare_s']):.3f} s  ({', '.join(f'{x:.3f}' for x in m['bare_s'])})")
-    print(f"  with contact_log:  median {statistics.median(m['logged_s']):.3f} s  ({', '.join(f'{x:.3f}' for x in m['logged_s'])})")
-    print(f"  logged / bare:     median {statistics.median(m['ratio']):.2f}x  ({', '.join(f'{x:.2f}' for x in m['ratio'])})")
-    print(f"  closed_loop rows: {m['rows']}, with a truth answer: {m.get('truth_rows', 'n/a')}")
+    m = measure(args.scene, args.duration, args.repeats, args.truth_every_steps)
+    med = statistics.median
+
+    def line(label, key):
+        return f"  {label:<34} median {med(m[key]):.3f} s  ({', '.join(f'{x:.3f}' for x in m[key])})"
+
+    print(f"{args.scene}, {args.duration:g} s simulated, {args.repeats} repeats in one process")
+    print(line("bare learned run:", "bare_s"))
+    print(line(f"contact_log, truth every {m['truth_every_steps']} steps:", "logged_s"))
+    print(line("contact_log, no shadow truth:", "no_truth_s"))
+    print(f"  logged / bare: median {med(m['ratio']):.2f}x ({', '.join(f'{x:.2f}' for x in m['ratio'])}); "
+          f"without the truth {med(m['no_truth_ratio']):.2f}x ({', '.join(f'{x:.2f}' for x in m['no_truth_ratio'])})")
+    print(f"  closed_loop rows: {m['rows']}, with a truth answer: {m['truth_rows']}")
     return 0
 
 

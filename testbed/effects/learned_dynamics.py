@@ -113,7 +113,7 @@ class LearnedDynamicsConfig:
     torsional_friction: bool = True
     grid: int = 4  # quadrature points per side of the face overlap
     shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
-    truth_every_steps: int = 10  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
+    truth_every_steps: int = 20  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
 
 
 def load_named_predictor(name: str):
