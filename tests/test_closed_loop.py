@@ -125,7 +125,7 @@ def test_shadow_truth_is_sampled_at_its_period_and_matches_every_step(two_stack_
     the summary), and those answers are the every-step run's on the same steps."""
     from testbed.effects.learned_truth import TRUTH_COLUMNS
 
-    scenario, result = two_stack_run
+    scenario, _ = two_stack_run
     every = scenario.effects.learned_dynamics.truth_every_steps
     assert every > 1  # the default samples
     runs = {n: run_scenario(load_scenario("two_stack", overrides=LEARNED + [
