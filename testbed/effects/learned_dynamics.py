@@ -68,7 +68,8 @@ closed loop's wall time (3.54 s against 0.50 s, measured side by side in one pro
 `python -m testbed.compare.logging_bench`); the sampled default is in that module's doc.
 
 Cost (for `testbed compare`'s breakdown): the system adds up, with perf_counter, the time
-in its output's calc (`calc_s`, the predictor's call included), in the predictor's call
+in its output's calc and the stick anchors' update (`calc_s`, the predictor's call
+included), in the predictor's call
 (`predict_s`) and in its records (`record_s`, the shadow truth included); `costs()` reads
 them, `reset_costs()` zeroes them (the constructor's warm-up call is not counted).
 """
@@ -197,7 +198,7 @@ class LearnedDynamics(LeafSystem):
 
     def costs(self) -> dict:
         """Wall time [s, perf_counter] spent since reset_costs(): calc_s in the output's calc
-        (the predictor's call included), predict_s in the predictor's call, record_s in the
+        (the predictor's call included) and the anchors' update, predict_s in the predictor's call, record_s in the
         records (shadow truth included); calc_calls, predict_calls: how many of each."""
         c = self._cost
         return {"calc_s": float(c[0]), "predict_s": float(c[1]), "record_s": float(c[2]),
@@ -222,7 +223,9 @@ class LearnedDynamics(LeafSystem):
 
     def _update_anchors(self, context, state) -> None:
         self._out.Eval(context)  # cached: its calc left the next anchors for this very state
+        start = time.perf_counter()
         state.get_mutable_discrete_state(self._anchor_state).SetFromVector(self._next_anchors)
+        self._cost[0] += time.perf_counter() - start
 
     def _calc(self, context, output) -> None:
         start = time.perf_counter()
