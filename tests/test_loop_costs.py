@@ -95,3 +95,27 @@ def test_closed_loop_verdict_says_where_the_time_goes_when_not_faster(tilted_com
     faster["predictors"]["improved"]["speedup_vs_truth"] = 1.7
     assert "its wall time: Drake's step" in verdict(slower) and "predictor" in verdict(slower)
     assert "its wall time" not in verdict(faster)
+
+
+def test_logger_distances_from_body_poses_are_drakes():
+    """contact_log computes the boxes' signed distances from the bodies' poses it already
+    read: the same pairs and distances as near_distances on Drake's geometry poses."""
+    from pydrake.systems.analysis import Simulator
+
+    from testbed.builder import build_scene
+    from testbed.contact_extraction import near_distances
+    from testbed.scenario import load_scenario
+
+    scene = build_scene(load_scenario(TILTED_DROP, overrides=["effects.contact_log={}"]))
+    context = scene.create_context()
+    simulator = Simulator(scene.diagram, context)
+    simulator.Initialize()
+    logger = scene.effects["contact_log"].logger
+    for t, near in ((0.0, 1), (0.3, 2)):  # the base on the quay; then the box landed (tilted) on it too
+        simulator.AdvanceTo(t)
+        sub = logger.GetMyContextFromRoot(context)
+        step, _, p, R, mine = logger._geometry(sub)
+        drake = near_distances(logger._query_port.Eval(sub))
+        assert logger._box_body is not None and set(mine) == set(drake) and len(drake) == near
+        # the same poses composed in another order: equal to 1e-12 m
+        assert all(abs(mine[k] - drake[k]) < 1e-12 for k in drake)
