@@ -119,3 +119,26 @@ def test_logger_distances_from_body_poses_are_drakes():
         assert logger._box_body is not None and set(mine) == set(drake) and len(drake) == near
         # the same poses composed in another order: equal to 1e-12 m
         assert all(abs(mine[k] - drake[k]) < 1e-12 for k in drake)
+
+
+def test_closed_loop_records_keep_touching_rows_and_place_the_truth():
+    """build() keeps the rows with fn > 0 in step order, maps containers to body rows, and
+    puts each sampled step's truth on that step's touching rows (NaN elsewhere)."""
+    import numpy as np
+
+    from testbed.effects.learned_truth import ClosedLoopRecords, ShadowTruth, absent
+
+    records = ClosedLoopRecords([1, 2, 3], ShadowTruth(["1CC"] * 3, 1e8, 2))
+    z3 = np.zeros((2, 3))
+    records.add(0, 0.0, (np.array([0, 1]), np.array([1, 2]), np.array([5.0, 0.0]), z3 + 1, z3, z3, np.ones(2)),
+                truth={**absent(1), "has_truth": np.array([True]), "fn_truth": np.array([4.0])})
+    records.add(1, 0.001, (np.array([0, 1]), np.array([1, 2]), np.array([0.0, 7.0]), z3 + 2, z3, z3, np.ones(2)))
+    records.add(2, 0.002, (np.array([], int), np.array([], int), np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)),
+                           np.zeros((0, 3)), np.zeros(0)))
+    table = records.build()
+    assert table["step"].tolist() == [0, 1] and table["a"].tolist() == [1, 2] and table["b"].tolist() == [2, 3]
+    assert table["fn"].tolist() == [5.0, 7.0] and table["p_W"][:, 0].tolist() == [1.0, 2.0]
+    assert table["has_truth"].tolist() == [True, False]
+    assert table["fn_truth"][0] == 4.0 and np.isnan(table["fn_truth"][1])
+    empty = ClosedLoopRecords([0], None).build()
+    assert len(empty["a"]) == 0 and "has_truth" not in empty and empty["step"].dtype == np.int64

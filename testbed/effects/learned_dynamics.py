@@ -90,10 +90,8 @@ from pydrake.systems.framework import LeafSystem
 from testbed.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect
-from testbed.effects.learned_truth import ShadowTruth, summarize_truth
-from testbed.effects.learned_truth import empty_columns as truth_columns
+from testbed.effects.learned_truth import ClosedLoopRecords, ShadowTruth, summarize_truth
 from testbed.learned_force_law import law_modulus, pressure_stiffness, stability_numbers
-from testbed.records import TableBuilder
 
 MU_SDF = 0.4  # the models' mu_dynamic (sdf/README.md), what Drake's discrete solvers use
 NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (predicted)
@@ -164,8 +162,8 @@ class LearnedDynamics(LeafSystem):
         self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
         self.reset_costs()
-        self.table = TableBuilder()
-        self._truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
+        truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
+        self.records = ClosedLoopRecords(self._rows, truth)  # the closed_loop table (with contact_log)
         self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
         # the stick's anchors: per pair, material points in A and B [m] (6) and stuck flag (1)
         self._anchor_state = self.DeclareDiscreteState(7 * len(pairs))
@@ -273,24 +271,18 @@ class LearnedDynamics(LeafSystem):
     def _record(self, context) -> None:
         self._out.Eval(context)  # the cached wrenches of this state
         start = time.perf_counter()
-        last = self.last()
-        if last is None or not len(last["pairs"]):
-            self._cost[2] += time.perf_counter() - start
-            return
-        a, b = self._rows[last["pairs"][:, 0]], self._rows[last["pairs"][:, 1]]
-        columns = {"a": a, "b": b, "p_W": last["p_W"], "n_W": last["n_W"], "fn": last["fn"],
-                   "f_W": last["f_W"], "area": last["area"]}
-        step = int(round(context.get_time() / self._h))
-        if self._truth is not None:
-            columns.update(self._truth.columns(step, last))
-        self.table.append(step, context.get_time(), columns)
+        step, raw = int(round(context.get_time() / self._h)), self._last
+        truth = self.records.truth
+        if truth is not None and truth.due(step):
+            last = self.last()  # the touching rows, as the truth needs them
+            pairs = (last["pairs"][:, 0], last["pairs"][:, 1], last["fn"], last["p_W"], last["n_W"], last["f_W"], last["area"])
+            self.records.add(step, context.get_time(), pairs, truth.answer(last) if len(last["pairs"]) else None)
+        elif isinstance(raw, dict):  # last() already ran on this state: its touching rows
+            self.records.add(step, context.get_time(), (raw["pairs"][:, 0], raw["pairs"][:, 1], raw["fn"], raw["p_W"],
+                                                        raw["n_W"], raw["f_W"], raw["area"]))
+        elif raw is not None:  # (ia, ib, fn, p_W, n_W, f_W, area, ...) of the candidate pairs
+            self.records.add(step, context.get_time(), raw[:7])
         self._cost[2] += time.perf_counter() - start
-
-
-def _empty(truth: bool) -> dict:
-    z3, z = np.zeros((0, 3)), np.zeros(0)
-    out = {"a": z.astype(int), "b": z.astype(int), "p_W": z3, "n_W": z3, "fn": z, "f_W": z3, "area": z}
-    return {**out, **(truth_columns() if truth else {})}
 
 
 @register
@@ -374,7 +366,7 @@ class LearnedDynamicsEffect(Effect):
 
     def collect(self, tables: dict) -> None:
         if self.system._recording:
-            tables["closed_loop"] = self.system.table.build(_empty(self.config.shadow_truth))
+            tables["closed_loop"] = self.system.records.build()
 
     def summarize(self, tables: dict) -> dict:
         out = {"learned_dynamics_predictor": self.config.predictor,

@@ -111,3 +111,56 @@ def summarize_truth(table: dict, every_steps: int) -> dict:
     if np.any(ok):
         out["closed_loop_force_error_max_rel"] = float(np.max(np.abs(table["fn"][ok] / table["fn_truth"][ok] - 1)))
     return out
+
+
+LEARNED_COLUMNS = ("a", "b", "p_W", "n_W", "fn", "f_W", "area")
+
+
+class ClosedLoopRecords:
+    """The `closed_loop` table, gathered at little cost per step: a step keeps references
+    to the system's arrays of its candidate pairs (fresh arrays every step, never
+    written again), and build() selects the touching rows (fn > 0) and concatenates
+    every column once. On the sampled steps the truth is computed at once, on the
+    touching rows of that step's state.
+
+    rows: (m,) each container's index into the run's body_names; truth: a ShadowTruth or
+    None (no truth columns)."""
+
+    def __init__(self, rows, truth: ShadowTruth | None):
+        self._rows = np.asarray(rows)
+        self.truth = truth
+        self._steps: list = []  # (step, time, (ia, ib, fn, p_W, n_W, f_W, area), truth columns | None)
+
+    def add(self, step: int, time: float, pairs: tuple, truth: dict | None = None) -> None:
+        """One step's candidate pairs: ia, ib (k,) container indices, fn (k,) [N] (0: not
+        touching), p_W, n_W, f_W (k, 3), area (k,); truth: the truth columns of the
+        touching rows, in order (a sampled step), else None."""
+        if len(pairs[0]):
+            self._steps.append((step, time, pairs, truth))
+
+    def build(self) -> dict:
+        """The table (columns of the module docstring and LEARNED_COLUMNS, plus step, time)."""
+        empty = {"a": np.zeros(0, dtype=int), "b": np.zeros(0, dtype=int), "p_W": np.zeros((0, 3)),
+                 "n_W": np.zeros((0, 3)), "fn": np.zeros(0), "f_W": np.zeros((0, 3)), "area": np.zeros(0)}
+        if self.truth is not None:
+            empty.update(empty_columns())
+        if not self._steps:
+            return {**empty, "step": np.zeros(0, dtype=np.int64), "time": np.zeros(0)}
+        counts = np.array([len(s[2][0]) for s in self._steps])
+        ia, ib, fn, p_W, n_W, f_W, area = (np.concatenate([s[2][c] for s in self._steps]) for c in range(7))
+        keep = fn > 0
+        out = {"a": self._rows[ia[keep]], "b": self._rows[ib[keep]], "p_W": p_W[keep], "n_W": n_W[keep],
+               "fn": fn[keep], "f_W": f_W[keep], "area": area[keep]}
+        if self.truth is not None:
+            kept = np.add.reduceat(keep, np.r_[0, np.cumsum(counts)[:-1]])  # touching rows per step
+            start = np.r_[0, np.cumsum(kept)[:-1]]
+            columns = absent(int(keep.sum()))
+            for (_, _, _, truth), lo, n in zip(self._steps, start, kept):
+                if truth is not None:
+                    assert len(truth["has_truth"]) == n  # the truth of exactly this step's touching rows
+                    for name in TRUTH_COLUMNS:
+                        columns[name][lo:lo + n] = truth[name]
+            out.update(columns)
+        out["step"] = np.repeat(np.array([s[0] for s in self._steps], dtype=np.int64), counts)[keep]
+        out["time"] = np.repeat(np.array([s[1] for s in self._steps]), counts)[keep]
+        return out
