@@ -57,21 +57,26 @@ axis through the face centre; c = d * W, W the weight of the free containers at 
 above the pair's upper body (its static load). The tilt mode assumes the predictor
 moves its point with tilt as Drake's centre of pressure does.
 
-Records (with `contact_log`): the `closed_loop` table, one row per active pair per
-step: a, b, p_W (k, 3) [m], n_W (k, 3), fn (k,) [N], f_W (k, 3) [N] on b, area
+Records (with `contact_log`): the `closed_loop` table, one row per touching pair (fn > 0)
+per step: a, b, p_W (k, 3) [m], n_W (k, 3), fn (k,) [N], f_W (k, 3) [N] on b, area
 (k,) [m^2]; when `shadow_truth` is on, Drake's static hydroelastic answer at the same
-relative pose (a ContainerPair plant), SAMPLED every `truth_every_steps` steps (steps
-0, N, 2N, ...): has_truth (k,) bool, p_W_truth, n_W_truth, fn_truth [N], point_error [m],
-normal_error_deg, NaN on the rows without a truth answer (testbed/effects/learned_truth.py
-states each column). Every step's truth cost nine_mixed_stack's 1 s run 7.1x the bare
-closed loop's wall time (3.54 s against 0.50 s, measured side by side in one process,
-`python -m testbed.compare.logging_bench`); the sampled default is in that module's doc.
+relative pose (a ContainerPair plant), SAMPLED: computed on steps 0, N, 2N, ... (N =
+`truth_every_steps`, default 20: every 20 ms at 1 ms) and absent on the others. Every row
+carries has_truth (k,) bool, p_W_truth, n_W_truth, fn_truth [N], point_error [m] and
+normal_error_deg, NaN where has_truth is False (testbed/effects/learned_truth.py states
+each column; the summary counts the rows with a truth answer and takes its medians over
+those only). truth_every_steps = 1 gives every step's truth, as before. Cost, measured
+side by side in one process on nine_mixed_stack for 1 s (`python -m
+testbed.compare.logging_bench`, 2 shared cores, medians): truth on every step 7.3x the
+bare closed loop's wall time; sampled every 20 steps 2.1x, of which the logging without
+any truth is 1.7x (contact_log's own per-step records: poses, velocities, the quay's
+contact rows, signed distances).
 
 Cost (for `testbed compare`'s breakdown): the system adds up, with perf_counter, the time
 in its output's calc and the stick anchors' update (`calc_s`, the predictor's call
-included), in the predictor's call
-(`predict_s`) and in its records (`record_s`, the shadow truth included); `costs()` reads
-them, `reset_costs()` zeroes them (the constructor's warm-up call is not counted).
+included), in the predictor's call (`predict_s`) and in its records (`record_s`, the
+shadow truth included); `costs()` reads them, `reset_costs()` zeroes them (the
+constructor's warm-up call is not counted).
 """
 
 
