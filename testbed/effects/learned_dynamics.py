@@ -166,7 +166,7 @@ class LearnedDynamics(LeafSystem):
         self._kappa = np.asarray(kappa, dtype=float)  # (P,) [Pa/m]
         self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
-        self.reset_costs()
+        self.reset_costs()  # (again after the constructor's warm-up call below)
         truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
         self.records = ClosedLoopRecords(self._rows, truth)  # the closed_loop table (with contact_log)
         self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
@@ -201,8 +201,9 @@ class LearnedDynamics(LeafSystem):
 
     def costs(self) -> dict:
         """Wall time [s, perf_counter] spent since reset_costs(): calc_s in the output's calc
-        (the predictor's call included) and the anchors' update, predict_s in the predictor's call, record_s in the
-        records (shadow truth included); calc_calls, predict_calls: how many of each."""
+        (the predictor's call included) and the anchors' update, predict_s in the predictor's
+        call, record_s in the records (shadow truth included); calc_calls, predict_calls: how
+        many of each."""
         c = self._cost
         return {"calc_s": float(c[0]), "predict_s": float(c[1]), "record_s": float(c[2]),
                 "calc_calls": int(c[3]), "predict_calls": int(c[4])}
