@@ -51,8 +51,6 @@ ALLOWED = {  # (file, function) -> why its imports of project modules stay insid
     ("learned_contact/labels.py", "_pair_scene"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
     ("learned_contact/labels.py", "label_one"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
     ("learned_contact/loading.py", "_classes"): "paper_mlp imports loading's constants: a cycle at the top",
-    ("testbed/effects/learned_dynamics.py", "_truth"):
-        _DRAKE + "'s pair plant: built only when the shadow truth is recorded (being reworked beside this change)",
 }
 
 

@@ -17,10 +17,11 @@ import tempfile
 from testbed.compare import compare_predictors
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario
-from testbed.validation.cases.closed_loop import ENERGY_FRACTION, GATED, KEYS, RESTING_SCENES, ClosedLoopCase, series_figures
+from testbed.validation.cases.closed_loop import DEFAULT_SCENES, ENERGY_FRACTION, GATED, KEYS, RESTING_SCENES, ClosedLoopCase, series_figures
 
 OPEN_SCENES = (("two_stack", 1.0), ("five_stack", 1.0), ("bridge", 1.0), ("nine_mixed_stack", 1.0),
                ("crane_misaligned", 3.0))
+CLOSED_SCENES = DEFAULT_SCENES  # the validation's closed-loop scenes, each at its own duration
 QUICK_OPEN_SCENES = (("two_stack", 0.5),)
 QUICK_CLOSED_SCENES = (("two_stack", 1.0), ("crane_misaligned", 2.0))
 OPEN_KEYS = ("learned_vs_hydro_point_error_median_m", "learned_vs_hydro_point_error_max_m",

@@ -60,10 +60,16 @@ def run(args) -> int:
 def format_figures(f: dict) -> str:
     """The few lines `testbed compare` prints."""
     verdict = "DIVERGED" if f["diverged"] else ("ran, but left Drake's path" if f["departed"] else "ran")
+    from testbed.compare.costs import breakdown_line
     from testbed.compare.metrics import error_lines
 
-    return "\n".join([
+    lines = [
         f"scene {f['scene']} with the {f['predictor']} predictor in the loop: {verdict} "
         f"({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
         *error_lines(f, "learned", f["wall_per_sim_s_learned"]),
-    ])
+    ]
+    cost = breakdown_line(f.get("cost_learned"))
+    if cost:
+        slower = f.get("speedup_vs_truth", 1.0) < 1.0
+        lines.append(f"  the learned run's wall time{' (not faster than Drake hydroelastic here)' if slower else ''}: {cost}")
+    return "\n".join(lines)

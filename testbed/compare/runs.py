@@ -5,7 +5,8 @@ wind, crane, ...) and drops every recorder, observer and viewer, so its wall tim
 cost of the dynamics alone. Every `record_every` steps the run
 records, for the m free containers: p_WB (m, 3) [m], q_WB (m, 4) (w, x, y, z),
 V_WB (m, 6) [rad/s, m/s] (angular, linear; of the body origin, in W) and the
-mechanical energy (kinetic + gravity potential) [J].
+mechanical energy (kinetic + gravity potential) [J]. A learned run also keeps its
+system's cost counters over the timed steps (Trajectory.costs; testbed/compare/costs.py).
 """
 
 from __future__ import annotations
@@ -65,6 +66,8 @@ class Trajectory:
     simulated_s: float
     error: str = ""  # the simulator's error when it failed, else ""
     names: tuple = ()
+    # a learned run's LearnedDynamics.costs() over the timed steps (testbed/compare/costs.py); else {}
+    costs: dict = dataclasses.field(default_factory=dict)
 
 
 def run_variant(scenario, duration: float, record_every: int, source="<scenario>", scene=None) -> Trajectory:
@@ -78,6 +81,10 @@ def run_variant(scenario, duration: float, record_every: int, source="<scenario>
     simulator = Simulator(scene.diagram, context)
     ApplySimulatorConfig(scene.scenario.simulator, simulator)
     simulator.Initialize()
+    learned = scene.effects.get("learned_dynamics")
+    system = getattr(learned, "system", None)
+    if system is not None:
+        system.reset_costs()  # count only the timed steps below, not the build or Initialize
     bodies = [scene.bodies[n] for n in scene.free_names]
     h = plant.time_step()
     n_rec = int(round(duration / h)) // record_every
@@ -110,4 +117,4 @@ def run_variant(scenario, duration: float, record_every: int, source="<scenario>
     m = len(bodies)
     return Trajectory(np.array(t), np.array(p).reshape(-1, m, 3), np.array(q).reshape(-1, m, 4),
                       np.array(V).reshape(-1, m, 6), np.array(E), np.array(PE), wall, t[-1], error,
-                      tuple(scene.free_names))
+                      tuple(scene.free_names), system.costs() if system is not None else {})

@@ -7,7 +7,7 @@ import dataclasses
 from pathlib import Path
 
 from testbed.builder import build_scene
-from testbed.compare import artifacts
+from testbed.compare import artifacts, costs
 from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
 from testbed.errors import TestbedError
@@ -70,6 +70,8 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
         for kind, traj in runs.items():
             figures[f"wall_per_sim_s_{kind}"] = traj.wall_s / max(traj.simulated_s, 1e-12)
         figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_learned"]
+        if run.costs:  # where the learned run's wall time went (testbed/compare/costs.py)
+            figures["cost_learned"] = costs.breakdown(run.costs, run.wall_s, int(round(run.simulated_s / h)))
         if point:
             figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures["wall_per_sim_s_learned"]
         figures["stability_max"] = max((max(r["normal"], r["tilt"]) for r in effect.stability), default=0.0)

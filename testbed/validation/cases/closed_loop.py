@@ -15,6 +15,7 @@ import math
 
 from learned_contact import sources
 from testbed.compare import compare_predictors
+from testbed.compare.costs import breakdown_line
 from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.document import Bullets, Section, Text, table
 from testbed.learned_force_law import KAPPA_MODULUS
@@ -64,7 +65,7 @@ KEYS = ("diverged", "departed", "position_error_max_m", "final_position_error_ma
         "energy_gain_max_J", "energy_gain_max_truth_J", "potential_drop_max_J", "drift_m_per_min_learned",
         "drift_m_per_min_truth", "simulated_s_learned", "learned_error", "worst_container", "worst_time_s",
         "wall_per_sim_s_truth", "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth",
-        "speedup_vs_point", "stability_max", "predictor_kind")
+        "speedup_vs_point", "stability_max", "predictor_kind", "cost_learned")
 
 
 def closed_loop_cases(scenes, suffix: str = "") -> list[Case]:
@@ -98,7 +99,7 @@ class ClosedLoopCase(CaseKind):
     name = "closed_loop"
     order = 15
     timing_keys = ("wall_per_sim_s_truth", "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth",
-                   "speedup_vs_point")
+                   "speedup_vs_point", "cost_learned")
 
     def cases(self, suite: str) -> list[Case]:
         if suite == "smoke":
@@ -192,7 +193,10 @@ class ClosedLoopCase(CaseKind):
                  "the work a crane trolley or the wind does in Drake's run at the same t is not counted as created), "
                  f"resting drift < {DRIFT_TOL_M_PER_MIN * 1e3:g} mm per simulated minute on resting scenes run >= "
                  f"{MIN_DRIFT_DURATION_S:g} s. The paper's MLP is reported, not gated. Speed = Drake's wall time per "
-                 "simulated second / the learned run's, measured side by side in one process (> 1: learned faster)."),
+                 "simulated second / the learned run's, measured side by side in one process (> 1: learned faster). "
+                 "Where a learned run is not faster, its verdict below says where its wall time went: Drake's step "
+                 "(the quay's contact, the solver, the simulator), the learned system, the predictor "
+                 "(testbed/compare/costs.py)."),
             table(["scene", "predictor", "ran to [s]", "diverged", "final pos err [mm]", "final angle err [deg]",
                    "max penetration [mm]", "energy created [J] (limit)", "drift [mm/min]", "leaves truth by 2 cm at [s]",
                    "learned wall / sim s [s]", "x vs hydroelastic", "x vs point"], rows),
@@ -265,8 +269,18 @@ def verdict(s: dict) -> str:
         bad = [g.name.split(": ")[-1] for g in ok if not g.passed]
         what = f"{sources.label(name)} can drive it" if not bad else f"{sources.label(name)} runs but misses: {', '.join(bad)}"
         speeds = f"{_speed(f['speedup_vs_truth'], 'hydroelastic')}, {_speed(f['speedup_vs_point'], 'point')}"
-        parts.append(f"{what}: {speeds}")
+        parts.append(f"{what}: {speeds}{_where_time_goes(f)}")
     return f"{s['scene']}: " + "; ".join(parts)
+
+
+def _where_time_goes(f: dict) -> str:
+    """Where the learned run's wall time went, when it is not faster than the truth ('' else)."""
+
+    ratio = f.get("speedup_vs_truth")
+    line = breakdown_line(f.get("cost_learned"))
+    if line is None or ratio is None or ratio >= 1:
+        return ""
+    return f" (its wall time: {line})"
 
 
 def _speed(ratio, against: str) -> str:
