@@ -130,9 +130,9 @@ def label_proposals(props: Proposals, *, workers: int = 2, progress: bool = True
          props.base[i:i + chunk], props.direction[i:i + chunk], props.depth[i:i + chunk])
         for i in range(0, len(props), chunk)
     ]
-    from tqdm import tqdm
+    from testbed.progress import progress
 
-    bar = tqdm(total=len(props), desc="labelling", unit="pose", disable=not progress)
+    bar = progress(total=len(props), desc="labelling", unit="pose", disable=not progress)
     out = []
     if workers <= 1:
         for job in jobs:

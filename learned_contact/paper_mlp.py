@@ -55,7 +55,7 @@ def train_paper(train, val, config: PaperConfig = PaperConfig(), *, seed: int = 
     """Trains the paper's MLP on Datasets `train`, `val`. Returns (NumpyMLP mapping
     paper_inputs -> paper outputs [rad], info dict with per-restart validation MSE)."""
     import torch
-    from tqdm import tqdm
+    from testbed.progress import progress
 
     torch.manual_seed(seed)
     torch.set_num_threads(config.torch_threads)
@@ -67,7 +67,7 @@ def train_paper(train, val, config: PaperConfig = PaperConfig(), *, seed: int = 
     X, Y = t((x_tr - x_mean) / x_std), t((y_tr - y_mean) / y_std)
     Xv, Yv = t((x_va - x_mean) / x_std), t((y_va - y_mean) / y_std)
     best, best_loss, losses, epochs = None, np.inf, [], []
-    bar = tqdm(total=config.restarts, desc="paper MLP restarts", disable=not progress)
+    bar = progress(total=config.restarts, desc="paper MLP restarts", disable=not progress)
     for _ in range(config.restarts):
         sizes = (6, *config.hidden, 4)
         layers = []

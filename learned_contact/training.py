@@ -81,7 +81,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
     """Trains the correction MLP (Adam, one-cycle schedule, best epoch on validation).
     Returns (NumpyMLP, info dict)."""
     import torch
-    from tqdm import tqdm
+    from testbed.progress import progress
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
@@ -115,7 +115,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
         return lp + ln
 
     best, best_state, history = np.inf, None, []
-    bar = tqdm(range(config.epochs), desc="improved MLP epochs", disable=not progress)
+    bar = progress(range(config.epochs), desc="improved MLP epochs", disable=not progress)
     for _ in bar:
         perm = torch.randperm(len(X))
         for i in range(0, len(X), config.batch):

@@ -71,9 +71,9 @@ def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress
     chunks = max(1, min(200, int(round(duration / h))))
     bar = None
     if progress:
-        from tqdm import tqdm
+        from testbed.progress import progress
 
-        bar = tqdm(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
+        bar = progress(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
                    bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
     start = time.perf_counter()
     t0 = context.get_time()

@@ -127,9 +127,9 @@ def run_watched(scene, work, *, stall_timeout: float, duration: float, progress:
         process.start()
         send.close()
         if progress:
-            from tqdm import tqdm
+            from testbed.progress import progress
 
-            bar = tqdm(total=round(duration, 9), unit="sim s", desc=name, leave=False,
+            bar = progress(total=round(duration, 9), unit="sim s", desc=name, leave=False,
                        bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
         seen, changed, t_start = sim_time.value, time.monotonic(), None
         while True:

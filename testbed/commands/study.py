@@ -50,9 +50,9 @@ def _stability(args, out: Path) -> None:
 
     grid = matrix_cases(quick=args.quick)
     if not args.quiet:
-        from tqdm import tqdm
+        from testbed.progress import progress
 
-        grid = tqdm(grid, desc="stability matrix")
+        grid = progress(grid, desc="stability matrix")
     rows = [run_matrix_entry(name, kw) for name, kw in grid]
     write_atomic(out / "stability.json", json.dumps(rows, indent=1, default=float))
     columns, matrix = stability_matrix(rows)

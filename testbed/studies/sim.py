@@ -152,9 +152,9 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
     combos = [(m, a) for m in models for a in approximations] if "drake" in engines else []
     iterator = combos
     if progress:
-        from tqdm import tqdm
+        from testbed.progress import progress
 
-        iterator = tqdm(combos, desc=f"sim study {scene}", leave=False)
+        iterator = progress(combos, desc=f"sim study {scene}", leave=False)
     for model, approximation in iterator:
         reference = reference_of(model, approximation)
         for h in time_steps:

@@ -83,9 +83,9 @@ def execute(cases: list[Case], run_dir: Path, *, executor: str = "local", worker
         return
     bar = None
     if progress:
-        from tqdm import tqdm
+        from testbed.progress import progress
 
-        bar = tqdm(total=len(cases), initial=len(cases) - len(pending), desc="validate", unit="case")
+        bar = progress(total=len(cases), initial=len(cases) - len(pending), desc="validate", unit="case")
 
     def done(result: dict) -> None:
         write_atomic(case_path(run_dir, result["id"]), json.dumps(result, indent=1, default=json_default))
