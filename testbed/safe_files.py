@@ -11,7 +11,8 @@ records).
 - `BoundedYamlMixin`: mixed into a PyYAML SafeLoader: nesting at most MAX_YAML_DEPTH levels
   (Python's composer recurses once per level, so deeper flow brackets would end in a
   RecursionError), aliases adding at most MAX_YAML_ALIAS_NODES nodes once expanded (an
-  anchor referenced ten times per level, nine levels deep, is 10**9 nodes), and no key twice
+  anchor referenced ten times per level, nine levels deep, is 10**9 nodes), no alias inside
+  the node it names (a structure containing itself never ends once expanded), and no key twice
   in one mapping (PyYAML keeps the last one silently). Violations raise `YamlLimitError`, a
   yaml.YAMLError with the line and column.
 - `load_json`: JSON from a bounded file; no key twice in an object; nesting beyond the
@@ -96,7 +97,7 @@ class BoundedYamlMixin:
     max_alias_nodes = MAX_YAML_ALIAS_NODES
 
     def compose_document(self):
-        self._depth, self._alias_nodes, self._weights = 0, 0, {}
+        self._depth, self._alias_nodes, self._weights, self._open_anchors = 0, 0, {}, []
         try:
             return super().compose_document()
         finally:
@@ -106,6 +107,9 @@ class BoundedYamlMixin:
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
             target = self.anchors.get(event.anchor)
+            if event.anchor in self._open_anchors:  # a node containing itself: endless once expanded
+                raise YamlLimitError(None, None, f"the alias *{event.anchor} refers to a node that contains it; "
+                                     "expected no self-reference", event.start_mark)
             if target is not None:
                 self._alias_nodes += self._weights.get(id(target), 1)
                 if self._alias_nodes > self.max_alias_nodes:
@@ -117,10 +121,15 @@ class BoundedYamlMixin:
         if self._depth > self.max_depth:
             mark = self.peek_event().start_mark
             raise YamlLimitError(None, None, f"nested deeper than {self.max_depth} levels; expected at most {self.max_depth}", mark)
+        anchor = getattr(self.peek_event(), "anchor", None)
+        if anchor is not None:
+            self._open_anchors.append(anchor)
         try:
             node = super().compose_node(parent, index)
         finally:
             self._depth -= 1
+            if anchor is not None:
+                self._open_anchors.pop()
         if isinstance(node, yaml.SequenceNode):
             weight = 1 + sum(self._weights.get(id(n), 1) for n in node.value)
         elif isinstance(node, yaml.MappingNode):

@@ -239,3 +239,13 @@ def test_case_record_with_a_duplicate_key_is_recomputed(tmp_path, capsys):
     path.write_text('{"id": "c1", "id": "c1", "kind": "scene", "params": {}, "status": "ok", "result": {}, "wall_s": 1}')
     assert load_record(tmp_path, case) is None
     assert "'id' twice" in capsys.readouterr().err and not path.exists()
+
+
+@pytest.mark.parametrize("text", [
+    GOOD.replace("duration: 0.01", "duration: 0.01\ndescription: &a [*a]"),
+    GOOD.replace("effects:\n  contact: {}", "effects: &e\n  contact: {x: *e}"),
+])
+def test_self_referencing_alias_is_refused(text):
+    """A node holding an alias to itself would be endless once written out for Drake's loader."""
+    with pytest.raises(ScenarioError, match="refers to a node that contains it"):
+        load_scenario(text=text)
