@@ -12,10 +12,11 @@ import time
 import zipfile
 from pathlib import Path
 
+import hostile_files
 import numpy as np
 import pytest
+from test_bad_input import GOOD
 
-import hostile_files
 from testbed import cli
 from testbed.calibration import data as toss_data
 from testbed.calibration.data import CalibrationDataError, load_tosses
@@ -25,8 +26,6 @@ from testbed.safe_files import InputFileError, load_json
 from testbed.scenario import MAX_SCENE_BYTES, load_scenario
 from testbed.validation.cases import Case
 from testbed.validation.executors import case_path, load_record
-
-from test_bad_input import GOOD
 
 ROOT = Path(__file__).resolve().parent.parent
 # The issue's bounds: the refusal itself (timed inside the child, after its imports) and the
@@ -249,3 +248,11 @@ def test_self_referencing_alias_is_refused(text):
     """A node holding an alias to itself would be endless once written out for Drake's loader."""
     with pytest.raises(ScenarioError, match="refers to a node that contains it"):
         load_scenario(text=text)
+
+
+def test_study_defaults_with_a_device_as_toss_data_exits_2_writing_nothing(tmp_path, capsys):
+    out = tmp_path / "study"
+    code = cli.main(["study", "defaults", "--toss-data", "/dev/zero", "--cases", "cube_tosses", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "/dev/zero" in err and "device" in err, err
+    assert not out.exists()

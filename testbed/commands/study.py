@@ -38,10 +38,21 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{timestamp()}"
+    if args.which == "defaults" and _wants_tosses(args):
+        from testbed.calibration.data import load_tosses
+
+        load_tosses(args.toss_data)  # checked before anything is written: CalibrationDataError -> exit 2
     out.mkdir(parents=True, exist_ok=True)
     {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
     print(f"study output: {out}")
     return 0
+
+
+def _wants_tosses(args) -> bool:
+    """Whether the defaults sweep will run the cube_tosses case (the full case list, or --cases naming it)."""
+    if args.cases:
+        return "cube_tosses" in [c.strip() for c in args.cases.split(",")]
+    return not args.quick
 
 
 def _stability(args, out: Path) -> None:
@@ -98,12 +109,7 @@ def _defaults(args, out: Path) -> None:
             "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
             "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}
     cases = _choices(args.cases, "--cases", d.CASE_NAMES, ("near_parallel",) if args.quick else d.CASE_NAMES)
-    toss_data = None
-    if d.TOSS_CASE in cases:
-        from testbed.calibration.data import load_tosses
-
-        load_tosses(args.toss_data)  # checked up front: CalibrationDataError (file, field, expectation) -> exit 2
-        toss_data = Path(args.toss_data)
+    toss_data = Path(args.toss_data) if d.TOSS_CASE in cases else None  # checked in run()
     start, partial = time.perf_counter(), out / "defaults_rows.jsonl"
     partial.write_text("")
     with partial.open("a") as f:  # each (setting, case) row as it arrives: a cut-short sweep keeps its rows
