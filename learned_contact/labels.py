@@ -25,6 +25,7 @@ import numpy as np
 from learned_contact import cache
 from learned_contact.geometry import contact_type
 from learned_contact.sampling import Proposals, sample
+from testbed.progress import progress as progress_bar
 
 LABEL_VERSION = 2  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus)
 _BISECT_TOL = 1e-6  # [m]
@@ -130,9 +131,8 @@ def label_proposals(props: Proposals, *, workers: int = 2, progress: bool = True
          props.base[i:i + chunk], props.direction[i:i + chunk], props.depth[i:i + chunk])
         for i in range(0, len(props), chunk)
     ]
-    from tqdm import tqdm
 
-    bar = tqdm(total=len(props), desc="labelling", unit="pose", disable=not progress)
+    bar = progress_bar(total=len(props), desc="labelling", unit="pose", disable=not progress)
     out = []
     if workers <= 1:
         for job in jobs:

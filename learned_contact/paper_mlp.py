@@ -20,6 +20,7 @@ from learned_contact.base import MLPPredictor
 from learned_contact.encodings import canonicalise, from_spherical, octant_signs, paper_outputs, proper
 from learned_contact.geometry import rpy_from_rotation, sat_normal
 from learned_contact.mlp import NumpyMLP
+from testbed.progress import progress as progress_bar
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,7 +56,7 @@ def train_paper(train, val, config: PaperConfig = PaperConfig(), *, seed: int = 
     """Trains the paper's MLP on Datasets `train`, `val`. Returns (NumpyMLP mapping
     paper_inputs -> paper outputs [rad], info dict with per-restart validation MSE)."""
     import torch
-    from tqdm import tqdm
+
 
     torch.manual_seed(seed)
     torch.set_num_threads(config.torch_threads)
@@ -67,7 +68,7 @@ def train_paper(train, val, config: PaperConfig = PaperConfig(), *, seed: int = 
     X, Y = t((x_tr - x_mean) / x_std), t((y_tr - y_mean) / y_std)
     Xv, Yv = t((x_va - x_mean) / x_std), t((y_va - y_mean) / y_std)
     best, best_loss, losses, epochs = None, np.inf, [], []
-    bar = tqdm(total=config.restarts, desc="paper MLP restarts", disable=not progress)
+    bar = progress_bar(total=config.restarts, desc="paper MLP restarts", disable=not progress)
     for _ in range(config.restarts):
         sizes = (6, *config.hidden, 4)
         layers = []

@@ -24,6 +24,7 @@ from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets
 from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
 from learned_contact.report import write_report
 from testbed.containers import CONTAINER_TYPES
+from testbed.progress import progress as progress_bar
 
 SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests use others
 
@@ -83,7 +84,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
     """Trains the correction MLP (Adam, one-cycle schedule, best epoch on validation).
     Returns (NumpyMLP, info dict)."""
     import torch
-    from tqdm import tqdm
+
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
@@ -117,7 +118,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
         return lp + ln
 
     best, best_state, history = np.inf, None, []
-    bar = tqdm(range(config.epochs), desc="improved MLP epochs", disable=not progress)
+    bar = progress_bar(range(config.epochs), desc="improved MLP epochs", disable=not progress)
     for _ in bar:
         perm = torch.randperm(len(X))
         for i in range(0, len(X), config.batch):

@@ -48,9 +48,14 @@ from testbed.containers import CONTAINER_TYPES, ContainerType
 from testbed.effects import registry
 from testbed.effects.contact import drake_approximation
 from testbed.errors import ScenarioError
+from testbed.safe_files import read_bounded, yaml_problem
 from testbed.scene_yaml import SceneDumper, apply_override, check_raw, parse_override, parse_yaml
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
+# A scene file is at most 256 KiB (about 1,700 containers; the shipped scenes are under 1.1 KiB):
+# PyYAML's pure-Python reader takes about 1.5 s per 256 KiB here, so a larger file is refused
+# before parsing. Nesting, aliases and duplicate keys are bounded too (testbed/safe_files.py).
+MAX_SCENE_BYTES = 256 * 1024
 
 
 @dataclasses.dataclass
@@ -201,15 +206,19 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
     the fully resolved scene (so `containers[0].mass=25000` works on a scene that
     relies on defaults, and `effects.wind=null` removes a declared effect).
     Raises ScenarioError naming the file and field on any problem.
+
+    Limits (testbed/safe_files.py), each refused with one ScenarioError before any parsing
+    or simulation: the file must be a regular file (not a directory, device or FIFO) of at
+    most MAX_SCENE_BYTES = 256 KiB, UTF-8; YAML nested at most 64 levels, aliases expanding
+    to at most 10,000 nodes, each key at most once per mapping; a --set entry at most 4096
+    characters. The checked data, written out without aliases, is what Drake's
+    yaml_load_typed reads.
     """
     if text is None:
         if path is None:
             raise ValueError("give a path or text")
         path = resolve_scene_path(path)
-        try:
-            raw = Path(path).read_bytes()
-        except OSError as e:
-            raise ScenarioError(path, "", f"cannot read the scene file ({e.strerror})") from None
+        raw = read_bounded(path, MAX_SCENE_BYTES, "scene file", ScenarioError)  # regular file, size limit
         try:
             text = raw.decode("utf-8")
         except UnicodeDecodeError as e:
@@ -228,8 +237,10 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
         for override in overrides:
             try:
                 parts, value = parse_override(override)
-            except (ValueError, yaml.YAMLError) as e:
+            except ValueError as e:
                 raise ScenarioError(source, "--set", str(e)) from None
+            except yaml.YAMLError as e:
+                raise ScenarioError(source, "--set", f"{override[:80]!r}: {yaml_problem(e)}") from None
             apply_override(data, parts, value, source)
         scenario = _typed_from_raw(data, f"{source} (with --set overrides)")
     effects = validate_scenario(scenario, source)

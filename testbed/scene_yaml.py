@@ -14,6 +14,9 @@ import yaml
 from pydrake.common.schema import Transform
 
 from testbed.errors import ScenarioError
+from testbed.safe_files import BoundedYamlMixin, yaml_problem
+
+MAX_OVERRIDE_CHARS = 4096  # one --set value; a scene field's value is a few dozen characters
 
 
 class _Tagged:
@@ -23,12 +26,17 @@ class _Tagged:
         self.tag, self.value = tag, value
 
 
-class SceneLoader(yaml.SafeLoader):
-    pass
+class SceneLoader(BoundedYamlMixin, yaml.SafeLoader):
+    """SafeLoader with Drake's !Tags kept and testbed.safe_files' bounds: nesting depth,
+    alias expansion, no duplicate keys."""
 
 
 class SceneDumper(yaml.SafeDumper):
-    pass
+    """Writes shared objects out in full (no &anchors): the text handed to Drake's typed
+    loader holds no aliases (their expansion is bounded when the scene is read)."""
+
+    def ignore_aliases(self, data):
+        return True
 
 
 def _construct_tagged(loader, tag_suffix, node):
@@ -135,6 +143,8 @@ def parse_override(text: str):
     if "=" not in text:
         raise ValueError(f"override {text!r} is not of the form key=value")
     key, raw = text.split("=", 1)
+    if len(text) > MAX_OVERRIDE_CHARS:
+        raise ValueError(f"override of {len(text)} characters; expected at most {MAX_OVERRIDE_CHARS}")
     parts: list = []
     for piece in key.strip().split("."):
         name, *indices = piece.replace("]", "").split("[")
@@ -169,11 +179,7 @@ def parse_yaml(text: str, source) -> dict:
     try:
         data = yaml.load(text, Loader=SceneLoader)
     except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        problem = " ".join(str(getattr(e, "problem", None) or e).split())
-        context = getattr(e, "context", None)
-        raise ScenarioError(source, "", f"malformed YAML{where}: {problem}" + (f" ({context})" if context else "")) from None
+        raise ScenarioError(source, "", yaml_problem(e)) from None
     if data is None:
         data = {}
     if not isinstance(data, dict):

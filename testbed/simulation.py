@@ -11,6 +11,7 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from testbed.builder import BuiltScene, build_scene
 from testbed.errors import SimulationError
+from testbed.progress import progress as progress_bar
 from testbed.records import atomic_directory, save_table, write_json
 from testbed.scenario import Scenario, dump_scenario
 from testbed.watchdog import run_watched
@@ -71,9 +72,8 @@ def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress
     chunks = max(1, min(200, int(round(duration / h))))
     bar = None
     if progress:
-        from tqdm import tqdm
 
-        bar = tqdm(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
+        bar = progress_bar(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
                    bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
     start = time.perf_counter()
     t0 = context.get_time()

@@ -30,6 +30,7 @@ import time
 import traceback
 
 from testbed.errors import SimulationError, TestbedError
+from testbed.progress import progress as progress_bar
 
 POLL_S = 0.05  # [s] parent's polling period
 DUMP_WAIT_S = 2.0  # [s] longest wait for the child's stack dump before killing it
@@ -127,9 +128,8 @@ def run_watched(scene, work, *, stall_timeout: float, duration: float, progress:
         process.start()
         send.close()
         if progress:
-            from tqdm import tqdm
 
-            bar = tqdm(total=round(duration, 9), unit="sim s", desc=name, leave=False,
+            bar = progress_bar(total=round(duration, 9), unit="sim s", desc=name, leave=False,
                        bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
         seen, changed, t_start = sim_time.value, time.monotonic(), None
         while True:

@@ -14,7 +14,7 @@ import pytest
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RollPitchYaw, RotationMatrix
 
-from testbed.calibration.data import CUBE_WIDTH, CalibrationDataError, Toss, load_tosses, save_tosses
+from testbed.calibration.data import CUBE_WIDTH, SHIPPED_TOSSES, CalibrationDataError, Toss, load_tosses, save_tosses
 from testbed.calibration.evaluate import RolloutPool
 from testbed.calibration.fit import FreeParameter, fit
 from testbed.calibration.initial_state import first_frame, flight_fit
@@ -26,7 +26,7 @@ from testbed.physics import GRAVITY
 
 DT = 1.0 / 148.0  # [s] the data's frame period
 CALIBRATION_DIR = Path(__file__).resolve().parent.parent / "testbed" / "calibration"
-DATA = Path(__file__).resolve().parent.parent.parent / "shared" / "data" / "cube_tosses" / "even.npz"
+DATA = SHIPPED_TOSSES  # the even-numbered DAIR Lab tosses shipped in the package
 
 
 def _synthetic_toss(toss_id, p0, rpy_deg, w_B, v, n):
@@ -198,7 +198,6 @@ def test_split_keeps_duplicates_on_the_same_side():
             assert (a in test) == (b in test)
 
 
-@pytest.mark.skipif(not DATA.exists(), reason="the shared toss data is not beside the repository")
 def test_split_of_the_real_data_keeps_its_duplicates_together():
     data = load_tosses(DATA)
     groups = [g for g in duplicate_groups(data.tosses) if len(g) > 1]

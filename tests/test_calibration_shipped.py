@@ -42,11 +42,9 @@ HELD_OUT_CEILING = {"point": 0.1238 + 0.003, "hydroelastic": 0.1297 + 0.003}
 @pytest.fixture(scope="module")
 def shipped_evaluation():
     """model -> {'test', 'train', 'all': position error mean [cube widths]} of the shipped
-    file on the shared data, split 0.5 seed 0; each file is evaluated once per module."""
+    file on the shipped data (testbed/calibration/cube_tosses/even.npz), split 0.5 seed 0; each file is evaluated once per module."""
     from testbed.calibration.evaluate import summarize
 
-    if not DATA.exists():
-        pytest.skip("the shared toss data is not beside the repository")
     cache = {}
 
     def figures(model):
@@ -63,14 +61,29 @@ def shipped_evaluation():
     return figures
 
 
+# How far the README's figures may move on another machine (issue 19, section 3), as a
+# fraction of the cube width. On one machine the evaluation is bitwise repeatable: per-toss
+# errors identical with 1 or 2 rollout workers and with OMP/OPENBLAS/MKL/NUMBA threads unset,
+# 1 or 4 (results are placed by toss index, not by arrival). Between machines, CPU-dependent
+# rounding (SIMD kernels, libm) differs, and impacts amplify it: another machine gave 12.99%
+# held-out for hydroelastic against the README's 12.97%. Measured proxy: each toss's first
+# position moved by a uniform +-1e-15 m per axis (a few ulps), six seeds plus the unperturbed
+# run. Hydroelastic: held-out 12.934..12.981% (std sigma = 1.6e-4), train std 9.9e-5, all
+# std 8.9e-5; point: std <= 8.5e-7 on every split (its rollouts barely depend on rounding).
+# Tolerance = the README's rounding (5e-5) + 3 * sqrt(2) * sigma (two independent machines,
+# each one sample), sigma the largest split's: hydroelastic 5e-5 + 6.9e-4 -> 8e-4; point
+# 5e-5 + 3.6e-6 -> 1e-4. Seven samples: the std is known to about +-30%.
+README_FIGURE_TOLERANCE = {"point": 1e-4, "hydroelastic": 8e-4}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("model", ["point", "hydroelastic"])
 def test_shipped_parameters_evaluate_to_the_readme_figures(model, shipped_evaluation):
-    """Same code, same data, deterministic Drake: the figures must agree to the README's
-    rounding (0.01 percentage points = 1e-4 of a cube width; rounding alone leaves 5e-5)."""
+    """Same code, same data: the figures must agree with the README to the README's rounding
+    plus the spread that rounding differences between machines cause (README_FIGURE_TOLERANCE)."""
     figures, readme = shipped_evaluation(model), _readme_figures()[model]
     for split in ("test", "train", "all"):
-        assert figures[split] == pytest.approx(readme[split], abs=1e-4), split
+        assert figures[split] == pytest.approx(readme[split], abs=README_FIGURE_TOLERANCE[model]), split
 
 
 @pytest.mark.slow

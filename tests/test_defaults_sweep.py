@@ -45,7 +45,7 @@ def test_the_modulus_reaches_every_geometry():
 def test_shipped_setting_passes_every_criterion_at_rest(judged):
     _, by_label = judged
     o = by_label[SHIPPED.label]
-    # cost is a timing ratio: reported, never asserted in a test; toss needs the data file; the
+    # cost is a timing ratio: reported, never asserted in a test; toss has its own test below; the
     # learned loop's criterion is not a property of the truth (its own test below)
     physics = [c for c in CRITERIA if c not in ("cost", "toss", "learned_loop")]
     assert {c: o["verdicts"][c] for c in physics} == {c: "pass" for c in physics}, o["failures"]
@@ -146,3 +146,18 @@ def test_shipped_models_carry_the_chosen_modulus():
     for f in files:
         (tag,) = [e for e in ET.parse(f).iter() if e.tag.endswith("hydroelastic_modulus")]
         assert float(tag.text) == HYDROELASTIC_MODULUS, f
+
+
+@pytest.mark.slow
+def test_shipped_setting_passes_the_toss_criterion_on_the_shipped_tosses():
+    """The toss criterion on the data shipped in the package (issue 19: no skip when a folder
+    beside the checkout is missing): the shipped setting's held-out error is below
+    TOSS_ERROR_BOUND (13.5%, the published Drake figure); measured 12.97% (calibration README)."""
+    from testbed.calibration.data import SHIPPED_TOSSES
+    from testbed.studies.defaults import TOSS_CASE
+
+    rows = sweep([SHIPPED], (TOSS_CASE,), workers=2, toss_data=SHIPPED_TOSSES)
+    (row,) = [r for r in rows if r["case_kind"] == TOSS_CASE]
+    assert row["tosses"] == 138 and row["stable"], row  # the held-out half of 275 (split 0.5, seed 0)
+    (o,) = summarize(rows)
+    assert o["verdicts"]["toss"] == "pass" and o["toss_error"] < TOSS_ERROR_BOUND, o

@@ -1,7 +1,14 @@
-"""Inputs that used to slip through the scene loader, round trips of written scenes, and a
-generated bad-input test: every mutated scene either loads or fails with one ScenarioError."""
+"""Inputs that used to slip through the scene loader, round trips of written scenes, and
+generated bad-input tests: every mutated scene either loads or fails with one ScenarioError,
+and every generated hostile file (alias bomb, deep nesting, duplicate key, oversized) fails
+with one within 2 s (tests/test_hostile_files.py has the non-regular files and the CLI)."""
 
 import copy
+import math
+import re
+import tempfile
+import time
+from pathlib import Path
 
 import pytest
 import yaml
@@ -10,7 +17,7 @@ from test_bad_input import GOOD  # noqa: E402  (the same minimal valid scene)
 
 from testbed import cli
 from testbed.errors import ScenarioError
-from testbed.scenario import BOUNDS, dump_scenario, load_scenario, shipped_scenes
+from testbed.scenario import BOUNDS, MAX_SCENE_BYTES, dump_scenario, load_scenario, shipped_scenes
 from testbed.scene_yaml import SceneDumper, SceneLoader
 
 
@@ -154,3 +161,63 @@ def test_mutated_scenes_load_or_fail_cleanly(text):
         assert "Traceback" not in message
     else:
         assert scenario.containers and scenario.duration > 0
+
+
+# ----------------------------------------------------------------------------- generated hostile files
+
+_TEXTS = {n: p.read_text() for n, p in shipped_scenes().items()}
+_KEY_LINE = re.compile(r"^( *)(- )?([A-Za-z_]\w*):(.*)$")
+HOSTILE_WALL_S = 2.0  # [s] per case: the issue's bound for a refusal (measured: < 0.3 s each here)
+
+
+@st.composite
+def hostile_scene(draw):
+    """(class, scene text) of one hostile class built on a shipped scene: an alias bomb whose
+    expansion passes the bound (fanout**levels >= 1e5 nodes), flow nesting 65..20000 deep, a
+    key given twice in one mapping, or a file 1..2x the size limit."""
+    name = draw(st.sampled_from(sorted(_TEXTS)))
+    text = _TEXTS[name]
+    kind = draw(st.sampled_from(["alias_bomb", "deep_flow", "duplicate_key", "oversized"]))
+    if kind == "alias_bomb":
+        fanout = draw(st.integers(2, 12))
+        levels = math.ceil(5 / math.log10(fanout)) + draw(st.integers(0, 4))
+        anchors = ["&l0 [b]"] + [f"&l{i} [" + ", ".join([f"*l{i - 1}"] * fanout) + "]" for i in range(1, levels + 1)]
+        field = draw(st.sampled_from(["description", "name", "duration"]))
+        text = f"{field}: [{', '.join(anchors)}]\n" + "\n".join(ln for ln in text.splitlines() if not ln.startswith(field + ":"))
+    elif kind == "deep_flow":
+        depth = draw(st.integers(65, 20_000))
+        opener, closer = draw(st.sampled_from([("[", "]"), ("{a: ", "}")]))
+        field = draw(st.sampled_from(["description", "duration", "plant"]))
+        text = f"{field}: {opener * depth}1{closer * depth}\n" + "\n".join(ln for ln in text.splitlines() if not ln.startswith(field + ":"))
+    elif kind == "duplicate_key":
+        lines = text.splitlines()
+        keyed = [i for i, ln in enumerate(lines) if _KEY_LINE.match(ln)]
+        i = draw(st.sampled_from(keyed))
+        indent, dash, key, rest = _KEY_LINE.match(lines[i]).groups()
+        copy_line = f"{indent}{'  ' if dash else ''}{key}:{rest}"
+        lines.insert(i + 1, copy_line)
+        text = "\n".join(lines) + "\n"
+    else:
+        size = draw(st.integers(MAX_SCENE_BYTES + 1, 2 * MAX_SCENE_BYTES))
+        text = text + "#" * max(0, size - len(text.encode()) - 1) + "\n"
+    return kind, text
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(hostile_scene())
+def test_hostile_scenes_fail_fast_with_one_line(case):
+    """Every hostile class, generated: one ScenarioError naming the file and the problem, within
+    HOSTILE_WALL_S per case."""
+    kind, text = case
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "scene.yaml"
+        path.write_text(text)
+        start = time.perf_counter()
+        with pytest.raises(ScenarioError) as info:
+            load_scenario(path)
+        wall = time.perf_counter() - start
+    message = str(info.value)
+    assert "\n" not in message and str(path) in message and "expected" in message, message
+    assert {"alias_bomb": "aliases expand", "deep_flow": "nested deeper", "duplicate_key": "twice",
+            "oversized": "at most 256 KiB"}[kind] in message, message
+    assert wall < HOSTILE_WALL_S, (kind, wall)

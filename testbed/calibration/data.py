@@ -1,6 +1,6 @@
 """Loading recorded cube tosses (the DAIR Lab cube data set's .npz format) with clear errors.
 
-File format (see ../shared/data/cube_tosses/README.md):
+File format (see testbed/calibration/cube_tosses/README.md; the shipped file is SHIPPED_TOSSES):
   states  (N, 13) float: per frame q_WB (w, x, y, z), p_WB [m] in W, w_WB_B [rad/s] (angular
           velocity expressed in the BODY frame B), v_WB [m/s] in W
   offsets (n + 1,) int: toss k is states[offsets[k]:offsets[k + 1]]
@@ -19,12 +19,21 @@ from pathlib import Path
 import numpy as np
 
 from testbed.errors import TestbedError
+from testbed.safe_files import check_regular_file
 
+# The even-numbered half of the DAIR Lab cube tosses, shipped in the package (BSD-3-Clause,
+# DAIRLab; source, subset and licence in cube_tosses/README.md): the default of every command
+# that needs toss data (`testbed calibrate fit|evaluate`, `testbed study defaults`).
+SHIPPED_TOSSES = Path(__file__).resolve().parent / "cube_tosses" / "even.npz"
 CUBE_WIDTH = 0.1048  # [m] edge length; the metric divides by it
 CUBE_MASS = 0.37  # [kg]
 CUBE_INERTIA = 0.00081  # [kg m^2] about each principal axis through the centre
 TABLE_HEIGHT = -0.0011  # [m] the table top's z, from resting frames (README of the data)
 MIN_FRAMES = 2
+# Size limits, checked before numpy reads anything: the shipped half of the data set is a 2.7 MB
+# file of 3.0 MB of arrays (275 tosses); the limits leave room for about 40x the whole set.
+MAX_TOSS_FILE_BYTES = 128 * 2**20  # [bytes] the .npz file
+MAX_TOSS_ARRAY_BYTES = 256 * 2**20  # [bytes] its arrays once unpacked (a zip bomb is refused from the zip directory)
 
 
 class CalibrationDataError(TestbedError, ValueError):
@@ -61,10 +70,19 @@ class TossSet:
 
 
 def load_tosses(path: str | Path) -> TossSet:
-    """Reads a toss .npz file; raises CalibrationDataError naming file, field and expectation."""
+    """Reads a toss .npz file; raises CalibrationDataError naming file, field and expectation.
+    The file must be a regular file of at most MAX_TOSS_FILE_BYTES whose arrays unpack to at most
+    MAX_TOSS_ARRAY_BYTES (testbed/safe_files.py; checked from the zip directory before reading)."""
     path = Path(path)
-    if not path.is_file():
-        raise CalibrationDataError(path, "", "no such file (expected a .npz with states, offsets, toss_id, dt)")
+    check_regular_file(path, MAX_TOSS_FILE_BYTES, "toss file (.npz with states, offsets, toss_id, dt)", CalibrationDataError)
+    try:
+        with zipfile.ZipFile(path) as z:
+            unpacked = sum(info.file_size for info in z.infolist())
+    except (OSError, zipfile.BadZipFile, EOFError) as e:
+        raise CalibrationDataError(path, "", f"not a readable .npz file ({e}); expected a .npz with states, offsets, toss_id, dt") from None
+    if unpacked > MAX_TOSS_ARRAY_BYTES:
+        raise CalibrationDataError(path, "", f"its arrays unpack to {unpacked / 2**20:.0f} MiB; expected at most "
+                                             f"{MAX_TOSS_ARRAY_BYTES / 2**20:.0f} MiB")
     try:
         with np.load(path, allow_pickle=False) as f:
             arrays = {k: f[k] for k in f.files}

@@ -9,8 +9,9 @@ from testbed.commands import timestamp
 from testbed.errors import TestbedError
 from testbed.records import write_atomic
 
-# The shared data folder beside the repository's checkout (the project's layout; see README.md)
-DEFAULT_TOSS_DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "cube_tosses" / "even.npz"
+# The cube tosses shipped in the package (testbed/calibration/cube_tosses/, BSD-3-Clause, DAIRLab);
+# the same path as testbed.calibration.data.SHIPPED_TOSSES, spelled out so the CLI's start imports no numpy.
+DEFAULT_TOSS_DATA = Path(__file__).resolve().parents[1] / "calibration" / "cube_tosses" / "even.npz"
 
 NAME = "study"
 HELP = "one study on its own: sim (time step x model x approximation), query, stability or defaults (contact settings judged over hard cases)"
@@ -31,16 +32,27 @@ def add_arguments(parser) -> None:
     sweep.add_argument("--stiction-tolerances", help="plant stiction tolerances [m/s] (not SAP's), e.g. 1e-4,1e-6")
     sweep.add_argument("--cases", help="cases to run (default all: stress cases, shipped scenes, cube_tosses)")
     sweep.add_argument("--toss-data", default=str(DEFAULT_TOSS_DATA),
-                       help="real cube tosses for the toss criterion (default ../shared/data/cube_tosses/even.npz "
-                            "beside the checkout; absent: the criterion reads n/a)")
+                       help="real cube tosses for the toss criterion (default: the shipped even-numbered "
+                            "DAIR Lab tosses, testbed/calibration/cube_tosses/even.npz)")
 
 
 def run(args) -> int:
     out = Path(args.out) if args.out else Path("reports") / f"study-{args.which}-{timestamp()}"
+    if args.which == "defaults" and _wants_tosses(args):
+        from testbed.calibration.data import load_tosses
+
+        load_tosses(args.toss_data)  # checked before anything is written: CalibrationDataError -> exit 2
     out.mkdir(parents=True, exist_ok=True)
     {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
     print(f"study output: {out}")
     return 0
+
+
+def _wants_tosses(args) -> bool:
+    """Whether the defaults sweep will run the cube_tosses case (the full case list, or --cases naming it)."""
+    if args.cases:
+        return "cube_tosses" in [c.strip() for c in args.cases.split(",")]
+    return not args.quick
 
 
 def _stability(args, out: Path) -> None:
@@ -49,9 +61,9 @@ def _stability(args, out: Path) -> None:
 
     grid = matrix_cases(quick=args.quick)
     if not args.quiet:
-        from tqdm import tqdm
+        from testbed.progress import progress
 
-        grid = tqdm(grid, desc="stability matrix")
+        grid = progress(grid, desc="stability matrix")
     rows = [run_matrix_entry(name, kw) for name, kw in grid]
     write_atomic(out / "stability.json", json.dumps(rows, indent=1, default=float))
     columns, matrix = stability_matrix(rows)
@@ -97,11 +109,7 @@ def _defaults(args, out: Path) -> None:
             "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
             "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}
     cases = _choices(args.cases, "--cases", d.CASE_NAMES, ("near_parallel",) if args.quick else d.CASE_NAMES)
-    toss_data = Path(args.toss_data) if args.toss_data and Path(args.toss_data).is_file() else None
-    if args.toss_data and toss_data is None and args.toss_data != str(DEFAULT_TOSS_DATA):
-        raise TestbedError(f"--toss-data: no such file {args.toss_data!r}; expected a cube-toss .npz (testbed calibrate's format)")
-    if toss_data is None and d.TOSS_CASE in cases:
-        print(f"note: no cube-toss data at {args.toss_data}: the toss criterion reads n/a")
+    toss_data = Path(args.toss_data) if d.TOSS_CASE in cases else None  # checked in run()
     start, partial = time.perf_counter(), out / "defaults_rows.jsonl"
     partial.write_text("")
     with partial.open("a") as f:  # each (setting, case) row as it arrives: a cut-short sweep keeps its rows

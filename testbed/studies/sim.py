@@ -31,6 +31,7 @@ from testbed.effects.contact import drake_approximation
 from testbed.engines.mujoco import check_supported, mujoco_module
 from testbed.engines.mujoco_run import sampled_run_mujoco
 from testbed.errors import OptionalDependencyError, TestbedError
+from testbed.progress import progress as progress_bar
 from testbed.scenario import Scenario, load_scenario
 from testbed.simulation import simulate
 
@@ -157,9 +158,8 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
     combos = [(m, a) for m in models for a in approximations] if "drake" in engines else []
     iterator = combos
     if progress:
-        from tqdm import tqdm
 
-        iterator = tqdm(combos, desc=f"sim study {scene}", leave=False)
+        iterator = progress_bar(combos, desc=f"sim study {scene}", leave=False)
     for model, approximation in iterator:
         reference = reference_of(model, approximation)
         for h in time_steps:

@@ -15,10 +15,13 @@ import traceback
 from pathlib import Path
 
 from testbed.errors import OptionalDependencyError, TestbedError
+from testbed.progress import progress as progress_bar
 from testbed.records import json_default, write_atomic
+from testbed.safe_files import InputFileError, check_regular_file, load_json
 from testbed.validation.cases import Case, registry
 
 EXECUTORS = ("local", "ray")
+MAX_RECORD_BYTES = 64 * 2**20  # [bytes] one cases/<id>.json or suite.json read by --resume (records are kilobytes)
 
 
 def run_case(case: dict) -> dict:
@@ -54,15 +57,17 @@ def load_record(run_dir: Path, case: Case) -> dict | None:
     path = case_path(run_dir, case.id)
     if not path.exists():
         return None
+    what = "case result record (JSON written by testbed validate)"
+    check_regular_file(path, MAX_RECORD_BYTES, what)  # a directory, device, FIFO or huge file: refused, kept
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = load_json(path, MAX_RECORD_BYTES, what)
         problem = None
         if not isinstance(record, dict) or any(k not in record for k in RECORD_KEYS):
             problem = f"expected a result record with keys {', '.join(RECORD_KEYS)}"
         elif record["id"] != case.id or record["kind"] != case.kind or record["params"] != _as_json(case.params):
             problem = "it holds another case's result"
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
-        problem = f"not valid JSON ({e.__class__.__name__}: {str(e).splitlines()[0][:80]})"
+    except InputFileError as e:  # not UTF-8, not JSON, a key twice, nested too deeply
+        problem = e.problem[:160]
     if problem is None:
         return record
     print(f"testbed: note: {path}: {problem}; recomputing case {case.id}", file=sys.stderr)
@@ -79,9 +84,8 @@ def execute(cases: list[Case], run_dir: Path, *, executor: str = "local", worker
         return
     bar = None
     if progress:
-        from tqdm import tqdm
 
-        bar = tqdm(total=len(cases), initial=len(cases) - len(pending), desc="validate", unit="case")
+        bar = progress_bar(total=len(cases), initial=len(cases) - len(pending), desc="validate", unit="case")
 
     def done(result: dict) -> None:
         write_atomic(case_path(run_dir, result["id"]), json.dumps(result, indent=1, default=json_default))

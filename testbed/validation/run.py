@@ -20,9 +20,10 @@ from pathlib import Path
 from learned_contact import sources
 from testbed.errors import TestbedError
 from testbed.records import write_atomic
+from testbed.safe_files import InputFileError, load_json
 from testbed.validation import suites
 from testbed.validation.cases import Case
-from testbed.validation.executors import RayConnectionError, execute, load_record
+from testbed.validation.executors import MAX_RECORD_BYTES, RayConnectionError, execute, load_record
 from testbed.validation.replays import write_worst_replays
 from testbed.validation.report import SCHEMA_VERSION, write_report
 
@@ -41,10 +42,10 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
     if resume is not None:
         run_dir = Path(resume)
         spec_path = run_dir / "suite.json"
-        if not spec_path.is_file():
+        if not spec_path.exists():
             raise TestbedError(f"--resume {run_dir}: no suite.json there; expected a run directory made by testbed validate")
-        spec = json.loads(spec_path.read_text())
-        cases = [Case(**c) for c in spec["cases"]]
+        spec = load_json(spec_path, MAX_RECORD_BYTES, "suite file written by testbed validate")
+        cases = _cases_of(spec, spec_path)
     else:
         cases = cases if cases is not None else suites.suite(suite_name)
         if predictors:
@@ -69,7 +70,6 @@ def validate(*, suite_name: str = "default", workers: int = 2, executor: str = "
 def _checked_predictors(predictors) -> list[str]:
     """The predictors as learned_contact.sources strings that workers can load (files as
     absolute paths), each loaded once here so that a bad one fails before anything runs."""
-
     out = []
     for spec in predictors:
         spec = str(spec)
@@ -82,6 +82,19 @@ def _checked_predictors(predictors) -> list[str]:
         raise TestbedError(f"--predictor {list(predictors)}: labels {labels} repeat or name a shipped predictor; "
                            "give the files distinct names")
     return out
+
+
+def _cases_of(spec, path: Path) -> list[Case]:
+    """The cases of a suite.json, or InputFileError naming the field that is not a case list."""
+    if not isinstance(spec, dict) or not isinstance(spec.get("cases"), list):
+        raise InputFileError(path, "cases", "expected a JSON object with a list of cases (a run directory made by testbed validate)")
+    cases = []
+    for i, c in enumerate(spec["cases"]):
+        try:
+            cases.append(Case(**c))
+        except TypeError as e:
+            raise InputFileError(path, f"cases[{i}]", f"expected a case with id, kind and params ({e})") from None
+    return cases
 
 
 def _new_run_dir(out_root: Path) -> Path:

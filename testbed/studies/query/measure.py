@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from testbed.progress import progress as progress_bar
 from testbed.studies.query.methods import ContactMethod, build_methods
 from testbed.studies.query.poses import pooled
 
@@ -41,7 +42,6 @@ def measure_set(poses, methods: list[ContactMethod], repeats: int, *, progress: 
     Returns {method name: {"point" (n, 3), "normal" (n, 3), "count" (n,),
     "query_ns" (n,), "kernel_ns" (n,) or None, "candidates" (n,) (methods that count them)}}.
     """
-    from tqdm import tqdm
 
     n = len(poses)
     out = {}
@@ -63,7 +63,7 @@ def measure_set(poses, methods: list[ContactMethod], repeats: int, *, progress: 
             out[m.name] = {"point": point, "normal": normal, "count": count, "query_ns": q_ns, "kernel_ns": None,
                            "batch_ns": t / n}
             continue
-        for i in tqdm(range(n), desc=f"{poses.name}: {m.name}", disable=not progress, leave=False):
+        for i in progress_bar(range(n), desc=f"{poses.name}: {m.name}", disable=not progress, leave=False):
             p, nr, c = m.single(i)  # warm-up, and the answer
             point[i], normal[i] = p, nr
             count[i] = -1 if c is None else c
