@@ -27,3 +27,14 @@ class PredictorOutputError(TestbedError, ValueError):
     """A model's answers the bench cannot use: wrong shapes, NaN or infinite values, or
     normals further than learned_contact.external.NORMAL_LENGTH_TOLERANCE from unit
     length (the message names the model and counts the poses)."""
+
+
+def weights_error(path, field: str, problem: str) -> WeightsError:
+    """The WeightsError for testbed.safe_files' checks of a weights .npz (`error=` builder):
+    one line naming the file, the field when there is one, and the problem."""
+    return WeightsError(f"cannot read weights file {path}: {field + ' ' if field else ''}{problem}")
+
+
+def onnx_file_error(path, field: str, problem: str) -> WeightsError:
+    """The same for an ONNX model file."""
+    return WeightsError(f"ONNX model {path}: {field + ' ' if field else ''}{problem}")

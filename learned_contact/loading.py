@@ -22,17 +22,18 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.base import FORMAT_VERSION
-from learned_contact.errors import WeightsError
-from learned_contact.files import check_regular_file
+from learned_contact.errors import WeightsError, weights_error
 from learned_contact.mlp import ACTIVATIONS, NumpyMLP
 from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
 from testbed.containers import CONTAINER_TYPES
+from testbed.safe_files import load_npz
 
 SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}
 # kind -> (input width, output width) of its network
 SHAPES = {"improved": (91, 6), "paper": (6, 4)}
 LEGACY_PAPER_TYPES = ("1CC", "1AA", "1AAA")  # the shipped paper file's training sizes
-# The shipped improved file is ~60 kB; 64 MB admits any MLP of this kind and refuses a runaway file.
+# The shipped improved file is ~60 kB; 64 MB (file and unpacked arrays) admits any MLP of this kind and
+# refuses a runaway file or a zip bomb.
 MAX_WEIGHTS_BYTES = 64 * 2**20
 
 
@@ -59,13 +60,8 @@ def read_arrays(path: Path) -> dict:
     if not path.exists():
         raise WeightsError(f"weights file {path} not found; give 'improved', 'paper' or the path of an .npz "
                            "(train one with learned_contact.training.train_default)")
-    check_regular_file(path, MAX_WEIGHTS_BYTES, "weights file")
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            return {k: data[k] for k in data.files}
-    except Exception as exc:  # noqa: BLE001 - any unreadable file is the same error
-        raise WeightsError(f"cannot read weights file {path}: {exc}; expected an .npz written by "
-                           "a predictor's save()") from exc
+    return load_npz(path, MAX_WEIGHTS_BYTES, MAX_WEIGHTS_BYTES, "weights .npz written by a predictor's save()",
+                    weights_error)
 
 
 def infer_kind(arrays: dict, path) -> str:

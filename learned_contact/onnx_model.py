@@ -25,9 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.errors import PredictorOutputError, WeightsError
+from learned_contact.errors import PredictorOutputError, WeightsError, onnx_file_error
 from learned_contact.external import ExternalPredictor, default_sizes, probe_poses
-from learned_contact.files import check_regular_file
+from testbed.safe_files import check_regular_file
 
 INPUTS = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}  # name -> shape after the batch axis
 OUTPUTS = {"point_A": (3,), "normal_A": (3,)}
@@ -97,7 +97,7 @@ def load_onnx(path) -> ExternalPredictor:
     """The ONNX model at `path` behind the Predictor interface (see the module docstring);
     WeightsError naming the file and what is wrong otherwise."""
     path = Path(path)
-    check_regular_file(path, MAX_MODEL_BYTES, "ONNX model")
+    check_regular_file(path, MAX_MODEL_BYTES, "ONNX model (.onnx)", onnx_file_error)
     session = _session(path)
     inputs = {a.name: a for a in session.get_inputs()}
     outputs = {a.name: a for a in session.get_outputs()}

@@ -28,8 +28,10 @@ from __future__ import annotations
 import json
 import os
 import stat
+import zipfile
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from testbed.errors import TestbedError
@@ -203,3 +205,22 @@ def load_json(path: str | Path, limit: int, what: str, error=InputFileError):
         raise error(path, "", f"refused JSON: {e}") from None
     except RecursionError:  # the C decoder stops at the interpreter's recursion limit (~1000 levels)
         raise error(path, "", f"refused JSON: nested too deeply; expected a {what}") from None
+
+
+def load_npz(path: str | Path, limit: int, unpacked_limit: int, what: str, error=InputFileError) -> dict:
+    """{name: array} of a .npz that is a regular file of at most `limit` bytes whose arrays
+    unpack to at most `unpacked_limit` bytes (summed from the zip directory before any array
+    is read, so a zip bomb costs nothing); pickled objects are refused (allow_pickle=False)."""
+    check_regular_file(path, limit, what, error)
+    try:
+        with zipfile.ZipFile(path) as z:
+            unpacked = sum(info.file_size for info in z.infolist())
+    except (OSError, zipfile.BadZipFile, EOFError) as e:
+        raise error(path, "", f"not a readable .npz file ({e}); expected a {what}") from None
+    if unpacked > unpacked_limit:
+        raise error(path, "", f"its arrays unpack to {_size_text(unpacked)}; expected at most {_size_text(unpacked_limit)}")
+    try:
+        with np.load(path, allow_pickle=False) as f:
+            return {k: f[k] for k in f.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
+        raise error(path, "", f"not a readable .npz file ({e}); expected a {what}") from None

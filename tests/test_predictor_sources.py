@@ -180,3 +180,30 @@ def test_cli_names_the_bad_model_and_exits_2(tmp_path):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and str(path) in lines[0] and "static batch axis" in lines[0]
     assert not out.exists()
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".onnx"])
+def test_a_fifo_model_file_is_refused_without_blocking(tmp_path, suffix):
+    """A named pipe given as a model would block the reader forever: refused from stat()."""
+    import os
+    import time
+
+    path = tmp_path / f"pipe{suffix}"
+    os.mkfifo(path)
+    t0 = time.perf_counter()
+    with pytest.raises(WeightsError, match="FIFO") as info:
+        load_predictor(str(path))
+    assert time.perf_counter() - t0 < 2.0 and str(path) in str(info.value)
+
+
+def test_a_weights_zip_bomb_is_refused_from_the_zip_directory(tmp_path, monkeypatch):
+    """Arrays that unpack beyond the limit are refused before numpy reads any (the limit is
+    lowered here so that a 1 MB array stands in for a bomb)."""
+    from learned_contact import loading
+
+    path = tmp_path / "bomb.npz"
+    np.savez_compressed(path, big=np.zeros(2**17))  # 1 MiB of zeros, ~1 kB on disk
+    monkeypatch.setattr(loading, "MAX_WEIGHTS_BYTES", 64 * 1024)
+    with pytest.raises(WeightsError, match="unpack to") as info:
+        load_predictor(str(path))
+    assert str(path) in str(info.value)

@@ -13,13 +13,12 @@ The object: a 0.1048 m cube of 0.37 kg, 0.00081 kg m^2 about each axis (the sour
 from __future__ import annotations
 
 import dataclasses
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from testbed.errors import TestbedError
-from testbed.safe_files import check_regular_file
+from testbed.safe_files import load_npz
 
 # The even-numbered half of the DAIR Lab cube tosses, shipped in the package (BSD-3-Clause,
 # DAIRLab; source, subset and licence in cube_tosses/README.md): the default of every command
@@ -74,20 +73,8 @@ def load_tosses(path: str | Path) -> TossSet:
     The file must be a regular file of at most MAX_TOSS_FILE_BYTES whose arrays unpack to at most
     MAX_TOSS_ARRAY_BYTES (testbed/safe_files.py; checked from the zip directory before reading)."""
     path = Path(path)
-    check_regular_file(path, MAX_TOSS_FILE_BYTES, "toss file (.npz with states, offsets, toss_id, dt)", CalibrationDataError)
-    try:
-        with zipfile.ZipFile(path) as z:
-            unpacked = sum(info.file_size for info in z.infolist())
-    except (OSError, zipfile.BadZipFile, EOFError) as e:
-        raise CalibrationDataError(path, "", f"not a readable .npz file ({e}); expected a .npz with states, offsets, toss_id, dt") from None
-    if unpacked > MAX_TOSS_ARRAY_BYTES:
-        raise CalibrationDataError(path, "", f"its arrays unpack to {unpacked / 2**20:.0f} MiB; expected at most "
-                                             f"{MAX_TOSS_ARRAY_BYTES / 2**20:.0f} MiB")
-    try:
-        with np.load(path, allow_pickle=False) as f:
-            arrays = {k: f[k] for k in f.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise CalibrationDataError(path, "", f"not a readable .npz file ({e})") from None
+    arrays = load_npz(path, MAX_TOSS_FILE_BYTES, MAX_TOSS_ARRAY_BYTES,
+                      "toss file (.npz with states, offsets, toss_id, dt)", CalibrationDataError)
     for key in ("states", "offsets", "toss_id", "dt"):
         if key not in arrays:
             raise CalibrationDataError(path, key, f"missing array; the file has {sorted(arrays)}; expected states, offsets, toss_id, dt")
