@@ -149,3 +149,20 @@ def test_outcome_gate_only_on_its_scenes():
     for k in ("final_tilt_max_deg", "final_tilt_max_truth_deg"):
         del old["result"]["predictors"]["improved"][k]
     assert not any(g.name.endswith("outcome") for g in cl.ClosedLoopCase().gates(old))
+
+
+def test_scene_case_skips_the_quay_force_balance_under_a_weld():
+    """The new scenes' base is welded: the quay carries none of the weight (the full suite's
+    scene case measured NaN for the quay's force over the weight and failed before)."""
+    from testbed.validation.cases import registry
+
+    kind = registry()["scene"]
+
+    def names(welded):
+        s = {"finite_state": True, "resting_penetration_m": 1e-4, "ground_force_over_weight": float("nan"),
+             "effects": ["contact", "friction"], "welded_containers": welded}
+        record = {"id": "scene-overhang_hold-point", "params": {"scene": "overhang_hold", "model": "point"}, "result": s}
+        return {g.name.rsplit(": ", 1)[-1]: g.passed for g in kind.gates(record)}
+
+    assert names(1) == {"finite state": True, "resting penetration": True}
+    assert names(0)["force balance"] is False  # without a weld the gate stays, and NaN fails it
