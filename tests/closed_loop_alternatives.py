@@ -13,7 +13,10 @@ without rotation, and the overhang lies along A's +x.
   top toward A's +x (toward the overhang);
 - prior: the improved predictor's geometric estimate alone (learned_contact.gates.GeometricPrior);
 - drake_point: Drake point contact's answer (ComputePointPairPenetration: the midpoint of
-  the two witness points, its normal), the geometric prior's answer where Drake finds none.
+  the two witness points, its normal), the geometric prior's answer where Drake finds none;
+- drake_hydroelastic: not an alternative but the reference, Drake hydroelastic's own static
+  answer at the pose (the centre of pressure and pressure-weighted normal of the contact
+  surface: what the shipped predictor was trained on), the prior's answer where there is none.
 """
 
 from __future__ import annotations
@@ -74,6 +77,7 @@ class DrakePoint:
     penetrating pair."""
 
     name = "Drake point contact's answer"
+    modulus = None  # the SDF's; the point query does not read it
 
     def __init__(self):
         from testbed.containers import CONTAINER_TYPES
@@ -87,7 +91,7 @@ class DrakePoint:
         if key not in self._pairs:
             from testbed.pair_plant import ContainerPair
 
-            self._pairs[key] = ContainerPair(*key)
+            self._pairs[key] = ContainerPair(*key, modulus=self.modulus)
         return self._pairs[key]
 
     def predict(self, p_AB, R_AB, *, size_A, size_B):
@@ -98,13 +102,44 @@ class DrakePoint:
                          self._prior.predict(p_AB, R_AB, size_A=size_A, size_B=size_B))
         for i in range(len(p_AB)):
             pair = self._pair(size_A[i], size_B[i])
-            found = pair.set_pose(p_AB[i], R_AB[i]).ComputePointPairPenetration()
-            if found:
-                pp = found[0]
-                flip = -1.0 if pp.id_A == pair.gid_a else 1.0  # nhat_BA_W: out of Drake's B into Drake's A
-                point[i] = 0.5 * (pp.p_WCa + pp.p_WCb)  # A at the world origin: world = A's frame
-                normal[i] = flip * pp.nhat_BA_W
+            answer = self._answer(pair, pair.set_pose(p_AB[i], R_AB[i]))
+            if answer is not None:
+                point[i], normal[i] = answer
         return point, normal
+
+    @staticmethod
+    def _answer(pair, query):
+        """(point, normal) in A's frame (A sits at the world origin), or None."""
+        found = query.ComputePointPairPenetration()
+        if not found:
+            return None
+        pp = found[0]
+        flip = -1.0 if pp.id_A == pair.gid_a else 1.0  # nhat_BA_W: out of Drake's B into Drake's A
+        return 0.5 * (pp.p_WCa + pp.p_WCb), flip * pp.nhat_BA_W
+
+
+class DrakeHydroelastic(DrakePoint):
+    """Drake hydroelastic's static answer at each pose: the contact surface's centre of pressure
+    and pressure-weighted normal (testbed.contact_geometry.static_pressure), as the training
+    labels take them (learned_contact/labels.py); the geometric prior's answer where there is
+    no surface. The centre of pressure does not depend on the modulus (pressure scales with it)."""
+
+    name = "Drake hydroelastic's static answer"
+
+    @staticmethod
+    def _answer(pair, query):
+        from pydrake.geometry import HydroelasticContactRepresentation
+
+        from testbed.contact_geometry import static_pressure, surface_face_arrays
+
+        surfaces = query.ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
+        if not surfaces:
+            return None
+        sp = static_pressure(surface_face_arrays(surfaces[0]))
+        if not np.all(np.isfinite(sp.cop)):
+            return None
+        flip = 1.0 if surfaces[0].id_M() == pair.gid_b else -1.0  # face normals point out of N into M
+        return sp.cop, flip * sp.normal
 
 
 def bias_5cm():
@@ -131,6 +166,10 @@ def drake_point():
     return DrakePoint()
 
 
+def drake_hydroelastic():
+    return DrakeHydroelastic()
+
+
 def __getattr__(name: str):
     """Factories for any bias or tilt (the bisection of the smallest one that flips a verdict):
     `bias_mm_25` moves every point 25 mm toward the overhang (A's +x), `bias_mm_m25` 25 mm away
@@ -150,3 +189,5 @@ ALTERNATIVES = {"bias 5 cm": "closed_loop_alternatives:bias_5cm", "bias 30 cm": 
                 "bias -30 cm": "closed_loop_alternatives:bias_away_30cm",
                 "normal 1 deg": "closed_loop_alternatives:normal_1deg", "prior": "closed_loop_alternatives:prior",
                 "drake point": "closed_loop_alternatives:drake_point"}
+# the reference every closed-loop gate must pass: Drake hydroelastic's own static answer
+REFERENCE = {"drake hydroelastic": "closed_loop_alternatives:drake_hydroelastic"}
