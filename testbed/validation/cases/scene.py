@@ -1,7 +1,8 @@
 """Case kind `scene`: one scene under one contact model, with the learned comparison.
 
 Gates: finite state, resting penetration, force balance on the ground at rest (not for
-crane scenes: the ropes carry part of the load until the twistlocks release).
+crane scenes: the ropes carry part of the load until the twistlocks release; nor for scenes
+with a welded container: the weld carries the load, e.g. overhang_hold).
 Sections: the predictor's worst case (near the verdict) and the table of scenes.
 """
 
@@ -102,6 +103,7 @@ class SceneCase(CaseKind):
         resting = c["time"] >= c["time"].max() - REST_WINDOW_S if len(c["time"]) else np.zeros(0, bool)
         summary["resting_penetration_m"] = float(max(0.0, -np.nanmin(c["phi"][resting]))) if np.any(resting) else 0.0
         summary["learned_available"] = learned_available
+        summary["welded_containers"] = sum(bool(s.fixed) for s in scenario.containers)
         return summary
 
     def gates(self, record: dict) -> list[Gate]:
@@ -115,6 +117,8 @@ class SceneCase(CaseKind):
         gates += self._in_scene_gates(record)
         if "crane" in s.get("effects", []):
             return gates  # the ropes carry part of the load until the twistlocks release
+        if s.get("welded_containers"):
+            return gates  # a welded container carries the load: the quay does not see the weight
         balance = s.get("ground_force_over_weight", float("nan"))
         gates.append(Gate(f"{cid}: force balance", abs(balance - 1.0) <= FORCE_BALANCE_TOL, balance,
                           [1 - FORCE_BALANCE_TOL, 1 + FORCE_BALANCE_TOL], "x weight",
