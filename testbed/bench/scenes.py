@@ -23,7 +23,7 @@ OPEN_SCENES = (("two_stack", 1.0), ("five_stack", 1.0), ("bridge", 1.0), ("nine_
                ("crane_misaligned", 3.0))
 CLOSED_SCENES = DEFAULT_SCENES  # the validation's closed-loop scenes, each at its own duration
 QUICK_OPEN_SCENES = (("two_stack", 0.5),)
-QUICK_CLOSED_SCENES = (("two_stack", 1.0), ("crane_misaligned", 2.0))
+QUICK_CLOSED_SCENES = (("two_stack", 1.0), ("crane_misaligned", 2.0), ("overhang_tip", 0.9))  # overhang_tip: where the point decides
 OPEN_KEYS = ("learned_vs_hydro_point_error_median_m", "learned_vs_hydro_point_error_max_m",
              "learned_vs_hydro_normal_error_median_deg", "learned_vs_hydro_normal_error_max_deg")
 

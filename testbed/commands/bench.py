@@ -15,7 +15,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("predictors", nargs="*", default=list(sources.SHIPPED_NAMES),
                         help=f"each one of: {sources.HELP} (default: improved paper)")
     parser.add_argument("--quick", action="store_true",
-                        help="two_stack open loop and two closed-loop scenes (about a minute); accuracy and cost as in full")
+                        help="two_stack open loop and three closed-loop scenes (about a minute); accuracy and cost as in full")
     parser.add_argument("--out", help="output directory (default reports/bench/<time>)")
     parser.add_argument("--workers", type=int, default=2, help="processes labelling the held-out poses (default 2)")
     parser.add_argument("--seed", type=int, default=0, help="held-out seed (the gates use 0)")
