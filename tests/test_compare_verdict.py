@@ -127,3 +127,22 @@ def test_bad_options_name_the_users_input(argv, needle, tmp_path):
 def test_run_offers_the_close_scene_names(tmp_path):
     code, out, err = cli("run", "two_stak", "--out", str(tmp_path / "r"))
     assert code == 2 and "did you mean two_stack" in err and "`testbed scenes`" in err
+
+
+def test_all_engines_against_one_reference(tmp_path):
+    """--engine all: Drake point, the learned loop and MuJoCo against one Drake run at the
+    learned law's modulus, in compare.json's three_way, beside the learned loop's verdict."""
+    pytest.importorskip("mujoco")
+    code, out, err, f = compare(tmp_path, "two_stack", "--engine", "all", "--duration", "0.1")
+    assert code == 0, err
+    three = f["three_way"]
+    assert three["hydroelastic_modulus_Pa"] == f["hydroelastic_modulus_Pa"] == 1e8
+    assert [r["model"] for r in three["rows"]] == ["Drake point", "learned (improved)", "MuJoCo (matched)"]
+    learned = three["rows"][1]
+    # the same truth run as the gated twin run: its position errors are the same numbers
+    assert learned["final_position_error_max_m"] == f["final_position_error_max_m"]
+    assert learned["wall_per_sim_s"] == pytest.approx(f["wall_per_sim_s_learned"], rel=1e-12)
+    # a resting stack for 0.1 s: every candidate within 2 mm of the truth (measured at 0.3 s:
+    # point 1.1 mm, learned 0.04 mm, MuJoCo 0.4 mm)
+    assert all(not r["diverged"] and r["position_error_max_m"] < 2e-3 for r in three["rows"])
+    assert f["verdict"] == "PASS" and "against one reference: Drake hydroelastic at 1e+08 Pa" in out

@@ -31,19 +31,22 @@ def add_arguments(parser) -> None:
     parser.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="override a scene field, as `testbed run --set` (e.g. --set containers[1].mass=5000)")
     parser.add_argument("--no-replay", action="store_true", help="skip the Meshcat ghost replay (replay.html)")
-    parser.add_argument("--engine", choices=("learned", "mujoco"), default="learned",
-                        help="what runs beside Drake: the learned closed loop (default) or MuJoCo")
+    parser.add_argument("--engine", choices=("learned", "mujoco", "all"), default="learned",
+                        help="what runs beside Drake: the learned closed loop (default), MuJoCo, or all: Drake point, "
+                             "the learned loop and MuJoCo in one table against one Drake run at the learned law's "
+                             "modulus (testbed/engines/three_way.py)")
     parser.add_argument("--params", choices=("matched", "default"), default=None,
-                        help="MuJoCo's contact parameters (only with --engine mujoco): matched to Drake (default) "
-                             "or MuJoCo's defaults")
+                        help="MuJoCo's contact parameters (only with --engine mujoco or all): matched to Drake "
+                             "(default) or MuJoCo's defaults")
 
 
 def check_options(args) -> None:
     """Refuses options that do not apply to the chosen engine (TestbedError: exit 2)."""
     if args.engine == "mujoco" and args.predictor is not None:
         raise TestbedError("--predictor does not apply with --engine mujoco (MuJoCo uses its own contact, no predictor)")
-    if args.engine != "mujoco" and args.params is not None:
-        raise TestbedError("--params applies only with --engine mujoco (the learned loop has no MuJoCo parameters)")
+    if args.engine == "learned" and args.params is not None:
+        raise TestbedError("--params applies only with --engine mujoco or all (the learned loop has no MuJoCo "
+                           "parameters)")
     if args.duration is not None and not args.duration > 0:
         raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
 
@@ -68,11 +71,21 @@ def run(args) -> int:
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")
-    label = sources.label(predictor)
+    label = sources.label(predictor) + ("-all" if args.engine == "all" else "")
     out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
+    verdict = judge
+    if args.engine == "all":  # one Drake reference at one modulus for point, learned, MuJoCo
+        from testbed.engines import three_way
+
+        three_way.check_three_way(scenario)
+        scenario = three_way.at_law_modulus(scenario)
+        params = args.params or "matched"
+
+        def verdict(figures, directory, runs):
+            return {**judge(figures, directory), "three_way": three_way.rows(scenario, figures, runs, params)}
     try:
         figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
-                                replay=not args.no_replay, source=source, judge=judge)
+                                replay=not args.no_replay, source=source, judge=verdict)
     except ScenarioError as e:
         if args.predictor is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
             raise TestbedError(f"--predictor {args.predictor}: {e.problem}") from None
@@ -103,6 +116,10 @@ def format_figures(f: dict, out=None) -> str:
         lines.append(f"  the learned run's wall time{' (not faster than Drake hydroelastic here)' if slower else ''}: {cost}")
     lines.append(modulus_line(f["hydroelastic_modulus_Pa"], f"the learned law's, in every run of this comparison; the "
                               f"shipped SDF's is {HYDROELASTIC_MODULUS:.0e} Pa, sdf/README.md says why they differ"))
+    if "three_way" in f:
+        from testbed.engines.three_way import format_table
+
+        lines += format_table(f["three_way"])
     if out is not None:
         lines.append(f"  output: {out}")
     lines += verdict_lines(f)

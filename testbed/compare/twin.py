@@ -37,8 +37,9 @@ def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: flo
     (when `replay`) replay.html atomically, and returns the compare.json figures.
     Raises ScenarioError (bad scene or predictor) before anything is simulated or written.
     source: the file a loaded Scenario came from (named in error messages).
-    judge: None, or (figures, directory) -> dict of verdict keys merged into compare.json,
-    called once trajectories.npz is in `directory` (testbed/validation/compare_verdict.py).
+    judge: None, or (figures, directory, runs) -> dict of keys merged into compare.json,
+    called once trajectories.npz is in `directory`; runs: {'truth', 'learned'[, 'point']:
+    Trajectory} (the verdict: testbed/validation/compare_verdict.py).
     """
     (figures,) = compare_predictors(scene, [predictor], out_dirs=[out_dir], duration=duration,
                                     with_point=with_point, replay=replay, record_every=record_every, source=source,
@@ -95,7 +96,7 @@ def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool, judge=Non
     with atomic_directory(out_dir) as tmp:
         artifacts.write_series(tmp / "trajectories.npz", runs)
         if judge is not None:
-            figures.update(judge(figures, tmp))
+            figures.update(judge(figures, tmp, runs))
         artifacts.plot_divergence(tmp / "divergence.png", runs["truth"], runs["learned"], scenario.name,
                                   figures["predictor"])
         if replay:

@@ -35,9 +35,10 @@ PASS, FAIL, DIVERGED, NOT_JUDGED = "PASS", "FAIL", "DIVERGED", "NOT JUDGED"
 EXIT_STATUS = {PASS: 0, NOT_JUDGED: 0, FAIL: 3, DIVERGED: 3}  # 3: a gate failed, as `testbed validate`
 
 
-def judge(figures: dict, directory) -> dict:
+def judge(figures: dict, directory, runs=None) -> dict:
     """The verdict keys compare.json gains, from a twin run's figures (compare_figures plus
-    twin.py's) and its directory holding trajectories.npz: verdict, exit_status, gates (the
+    twin.py's) and its directory holding trajectories.npz (`runs`, the twin-run callback's
+    trajectories, is not needed): verdict, exit_status, gates (the
     Gate dicts, named without the case prefix), gates_not_judged {gate: why},
     gates_failed [names], leaves_truth_at_s [s] (first record 2 cm from the truth; None:
     never), energy_gain_gated_J and energy_limit_J [J]."""
@@ -89,6 +90,8 @@ def headline(f: dict) -> str:
 def _shown(value, unit: str) -> str:
     if isinstance(value, list):  # a pinned band
         return "[" + ", ".join(_shown(v, unit) for v in value) + "]"
+    if unit == "m" and isinstance(value, float) and value == value:  # mm, 3 significant digits (0.00371 mm)
+        return f"{value * 1e3:.3g} mm"
     text = format_value(value, unit)
     return text if unit in ("", "m") or text == "n/a" else f"{text} {unit}"
 
