@@ -146,3 +146,32 @@ def test_all_engines_against_one_reference(tmp_path):
     # point 1.1 mm, learned 0.04 mm, MuJoCo 0.4 mm)
     assert all(not r["diverged"] and r["position_error_max_m"] < 2e-3 for r in three["rows"])
     assert f["verdict"] == "PASS" and "against one reference: Drake hydroelastic at 1e+08 Pa" in out
+
+
+def _judged(tmp_path, **figures):
+    """compare_verdict.judge on a synthetic twin run: 11 records, no energy created."""
+    import numpy as np
+
+    from testbed.validation.compare_verdict import judge
+
+    t = np.linspace(0.0, 5.0, 11)
+    np.savez(tmp_path / "trajectories.npz", position_error=np.zeros((11, 5)), learned_time=t,
+             learned_energy=np.zeros(11), truth_energy=np.zeros(11))
+    base = {"scene": "crane_edge_landing", "duration_s": 5.0, "time_step_s": 1e-3, "potential_drop_max_J": 1e6,
+            "diverged": False, "pair_steps_learned": 1000, "final_angle_error_max_deg": 5.3,
+            "max_penetration_m": 0.0457, "final_position_error_max_m": 1.0}
+    return judge({**base, **figures}, tmp_path)
+
+
+def test_known_limits_are_validates_pins(tmp_path):
+    """crane_edge_landing's pinned known limits hold in compare as in validate: a figure in
+    the band passes (and is listed as a known limit), one far better than the pin fails."""
+    pins = closed_loop.KNOWN_LIMITS["crane_edge_landing"][1]
+    held = _judged(tmp_path, final_position_error_max_m=pins["final position"][0])
+    assert held["verdict"] == "PASS" and len(held["gates_known_limits"]) == 3
+    band = next(g for g in held["gates"] if g["name"] == "final position (known limit)")["threshold"]
+    low, high = pins["final position"][1]
+    assert band == [low * pins["final position"][0], high * pins["final position"][0]]
+    moved = _judged(tmp_path, final_position_error_max_m=0.01)  # inside the 2 cm bound, outside the band
+    assert moved["verdict"] == "FAIL" and moved["gates_failed"] == ["final position (known limit)"]
+    assert moved["exit_status"] == 3

@@ -40,7 +40,8 @@ def judge(figures: dict, directory, runs=None) -> dict:
     twin.py's) and its directory holding trajectories.npz (`runs`, the twin-run callback's
     trajectories, is not needed): verdict, exit_status, gates (the
     Gate dicts, named without the case prefix), gates_not_judged {gate: why},
-    gates_failed [names], leaves_truth_at_s [s] (first record 2 cm from the truth; None:
+    gates_failed [names], gates_known_limits [names of gates that held only within a pinned
+    known limit's band], leaves_truth_at_s [s] (first record 2 cm from the truth; None:
     never), energy_gain_gated_J and energy_limit_J [J]."""
     s = case_result(figures["scene"], figures["duration_s"], [(GATED, figures, directory)])
     prefix = f"{s['scene']}: {GATED}: "
@@ -52,6 +53,7 @@ def judge(figures: dict, directory, runs=None) -> dict:
     elif s["duration_s"] < MIN_DRIFT_DURATION_S:
         not_judged["resting drift"] = f"run shorter than {MIN_DRIFT_DURATION_S:g} s"
     failed = [g.name for g in gates if not g.passed]
+    pinned = [g.name for g in gates if g.passed and g.name.endswith("(known limit)")]
     if figures.get("pair_steps_learned", 0) == 0:
         verdict = NOT_JUDGED
     elif figures["diverged"]:
@@ -60,7 +62,8 @@ def judge(figures: dict, directory, runs=None) -> dict:
         verdict = FAIL if failed else PASS
     f = s["predictors"][GATED]
     return {"verdict": verdict, "exit_status": EXIT_STATUS[verdict], "gates": [g.to_dict() for g in gates],
-            "gates_not_judged": not_judged, "gates_failed": failed, "leaves_truth_at_s": f["leaves_truth_at_s"],
+            "gates_not_judged": not_judged, "gates_failed": failed, "gates_known_limits": pinned,
+            "leaves_truth_at_s": f["leaves_truth_at_s"],
             "energy_gain_gated_J": f["energy_gain_gated_J"], "energy_limit_J": s["energy_limit_J"]}
 
 
@@ -84,14 +87,20 @@ def headline(f: dict) -> str:
         return f"ran; the learned model made no contact decision (0 container-container pair-steps: {why})"
     if f["verdict"] == DIVERGED:
         return f"DIVERGED ({blow_up(f)})"
-    return f"ran; ended {f['final_position_error_max_m'] * 1e3:.3g} mm from the truth"
+    return f"ran; ended {mm(f['final_position_error_max_m'])} mm from the truth"
+
+
+def mm(value_m: float) -> str:
+    """A length [m] in mm: 3 significant digits (0.00371), whole mm from 1 m up (1744)."""
+    value = value_m * 1e3
+    return f"{value:.0f}" if abs(value) >= 1000 else f"{value:.3g}"
 
 
 def _shown(value, unit: str) -> str:
     if isinstance(value, list):  # a pinned band
         return "[" + ", ".join(_shown(v, unit) for v in value) + "]"
-    if unit == "m" and isinstance(value, float) and value == value:  # mm, 3 significant digits (0.00371 mm)
-        return f"{value * 1e3:.3g} mm"
+    if unit == "m" and isinstance(value, float) and value == value:
+        return f"{mm(value)} mm"
     text = format_value(value, unit)
     return text if unit in ("", "m") or text == "n/a" else f"{text} {unit}"
 
@@ -128,6 +137,9 @@ def verdict_lines(f: dict) -> list[str]:
     lines.append(f"  speed (wall time per simulated second): {', '.join(ratios)}")
     passed = sum(g["passed"] for g in f["gates"])
     failed = f", failed: {', '.join(f['gates_failed'])}" if f["gates_failed"] else ""
+    if f.get("gates_known_limits"):
+        failed += (f"; {len(f['gates_known_limits'])} of them only within pinned known limits, far outside the "
+                   "bounds (see each gate)")
     lines.append(f"verdict: {f['verdict']} ({passed} of {len(f['gates'])} gates{failed}; exit status {f['exit_status']})")
     return lines
 
