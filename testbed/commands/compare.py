@@ -68,6 +68,8 @@ def run(args) -> int:
         print(format_mujoco_figures(compare_mujoco(scenario, params=params, out_dir=out, duration=args.duration,
                                                    replay=not args.no_replay, source=source)))
         print(f"  output: {out}")
+        print("verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts MuJoCo "
+              "beside it against the same Drake run)")
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")
