@@ -83,7 +83,7 @@ def headline(f: dict) -> str:
     """What happened to the run under test, e.g. 'ran; ended 0.041 mm from the truth'."""
     if f["verdict"] == NOT_JUDGED:
         n = f.get("container_pairs", 0)
-        why = "the scene has one container" if n == 0 else f"no container came near another ({n} pair(s) watched)"
+        why = "the scene has no pair of containers to decide" if n == 0 else f"no container came near another ({n} pair(s) watched)"
         return f"ran; the learned model made no contact decision (0 container-container pair-steps: {why})"
     if f["verdict"] == DIVERGED:
         return f"DIVERGED ({blow_up(f)})"
