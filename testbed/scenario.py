@@ -32,6 +32,7 @@ diagram. A copy (copy.deepcopy, pickling) carries no checked effects.
 
 import copy
 import dataclasses
+import difflib
 import math
 import typing
 from pathlib import Path
@@ -218,6 +219,8 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
         if path is None:
             raise ValueError("give a path or text")
         path = resolve_scene_path(path)
+        if not Path(path).exists():
+            raise ScenarioError(path, "", f"cannot read the scene file (No such file or directory){_near_names(path)}")
         raw = read_bounded(path, MAX_SCENE_BYTES, "scene file", ScenarioError)  # regular file, size limit
         try:
             text = raw.decode("utf-8")
@@ -234,6 +237,7 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
         data = parse_yaml(yaml_dump_typed(scenario), source)
         for key in _DERIVED_PLANT_FIELDS:
             data.get("plant", {}).pop(key, None)
+        source = source_label(source, overrides)  # every error from here on says the overrides are in play
         for override in overrides:
             try:
                 parts, value = parse_override(override)
@@ -242,10 +246,29 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
             except yaml.YAMLError as e:
                 raise ScenarioError(source, "--set", f"{override[:80]!r}: {yaml_problem(e)}") from None
             apply_override(data, parts, value, source)
-        scenario = _typed_from_raw(data, f"{source} (with --set overrides)")
+        scenario = _typed_from_raw(data, source)
     effects = validate_scenario(scenario, source)
     setattr(scenario, _CHECKED, (dump_scenario(scenario), effects))
     return scenario
+
+
+def source_label(path, overrides=()) -> str:
+    """How errors name a scene: its file, plus ' (with --set overrides)' when any are given,
+    so that a field an override set is not blamed on the file alone."""
+    return f"{path} (with --set overrides)" if overrides else str(path)
+
+
+def _near_names(path) -> str:
+    """'; did you mean two_stack? ...' for a missing scene whose name is close to shipped ones
+    (difflib), with where the shipped names are listed; '' for a path in a directory, or a
+    file name with a suffix and no close shipped name."""
+    p = Path(path)
+    if len(p.parts) > 1:
+        return ""
+    close = difflib.get_close_matches(p.stem, list(shipped_scenes()), n=3, cutoff=0.6)
+    if close:
+        return f"; did you mean {' or '.join(close)}? (`testbed scenes` lists the shipped scenes)"
+    return "" if p.suffix else "; no shipped scene has that name either (`testbed scenes` lists them)"
 
 
 def checked_effects(scenario: Scenario, source: object = "<scenario>") -> dict:

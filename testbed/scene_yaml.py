@@ -157,11 +157,13 @@ def parse_override(text: str):
 
 def apply_override(data: dict, parts: list, value, source) -> None:
     node = data
+    field = ""
     for depth, part in enumerate(parts):
-        field = ".".join(str(p) for p in parts[: depth + 1])
+        field = _join(field, part)
         if isinstance(part, int):
             if not isinstance(node, list) or not -len(node) <= part < len(node):
-                raise ScenarioError(source, field, "--set: list index out of range")
+                size = f"{len(node)} entries" if isinstance(node, list) else "not a list"
+                raise ScenarioError(source, field, f"--set: list index out of range ({size})")
         elif not isinstance(node, dict):
             raise ScenarioError(source, field, "--set: the parent is not a mapping")
         if depth == len(parts) - 1:

@@ -73,14 +73,17 @@ def test_good_scene_passes_the_same_path(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("override, needles", [
-    ("containers[5].mass=1", ["containers.5", "out of range"]),
+    ("containers[5].mass=1", ["containers[5]", "out of range (1 entries)"]),
     ("nonsense", ["--set", "key=value"]),
     ("duration=soon", ["duration", "number"]),
+    ("containers[0].mass=-5", ["containers[0].mass", "positive"]),  # checked after the overrides
 ])
 def test_bad_override(override, needles, tmp_path, capsys):
-    code, _, out = _run_cli(tmp_path, GOOD, "--set", override)
+    """Every --set error says the overrides are in play, not the file alone."""
+    code, scene, out = _run_cli(tmp_path, GOOD, "--set", override)
     err = capsys.readouterr().err
     assert code == 2
+    assert f"{scene} (with --set overrides): " in err and err.count("\n") == 1
     for needle in needles:
         assert needle in err, (needle, err)
     assert not out.exists()

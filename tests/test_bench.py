@@ -126,6 +126,8 @@ def test_compare_runs_an_onnx_predictor(tmp_path, centre_line):
     proc = subprocess.run([sys.executable, "-m", "testbed.cli", "compare", "two_stack", "--predictor", centre_line,
                            "--duration", "0.05", "--out", str(out), "--no-replay"], capture_output=True, text=True,
                           timeout=600)
-    assert proc.returncode == 0, proc.stderr
+    # it runs; the crude centre-line model may fail a closed-loop gate (exit 3: it creates energy on two_stack)
+    assert proc.returncode in (0, 3), proc.stderr
     figures = json.loads((out / "compare.json").read_text())
     assert figures["predictor"] == centre_line and figures["predictor_kind"] == "onnx"
+    assert figures["exit_status"] == proc.returncode and not figures["diverged"]

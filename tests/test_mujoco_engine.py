@@ -248,22 +248,27 @@ def test_missing_mujoco_gives_the_install_command(monkeypatch):
 
 
 def test_compare_engine_mujoco_writes_the_learned_compare_keys(tmp_path):
-    """`testbed compare SCENE --engine mujoco` writes every key the learned compare's figures
-    have (compare_figures, the wall times) plus the contact point/normal errors."""
+    """`testbed compare SCENE --engine mujoco` writes every figure the learned compare has
+    (compare_figures, the wall times), MuJoCo's named as MuJoCo (no 'learned' key, no
+    predictor), plus the contact point/normal errors and Drake's modulus."""
     from testbed.cli import main
     from testbed.compare.metrics import compare_figures
     from testbed.compare.runs import run_variant, variant
-    from testbed.engines.mujoco_compare import SatDepth
+    from testbed.engines.mujoco_compare import MUJOCO_KEYS, SatDepth
 
     out = tmp_path / "cmp"
     assert main(["compare", "two_stack", "--engine", "mujoco", "--duration", "0.05", "--no-replay", "--out", str(out)]) == 0
     figures = json.loads((out / "compare.json").read_text())
     scenario = load_scenario("two_stack")
     truth = run_variant(variant(scenario, "truth"), 0.02, 10)
-    learned_keys = set(compare_figures(truth, truth, scenario.containers, SatDepth()))
-    learned_keys |= {"scene", "predictor", "duration_s", "time_step_s", "record_period_s", "wall_per_sim_s_truth",
-                     "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth", "speedup_vs_point"}
+    learned_keys = {MUJOCO_KEYS.get(k, k) for k in compare_figures(truth, truth, scenario.containers, SatDepth())}
+    learned_keys |= {"scene", "duration_s", "time_step_s", "record_period_s", "wall_per_sim_s_truth",
+                     "wall_per_sim_s_mujoco", "wall_per_sim_s_point", "speedup_vs_truth", "speedup_vs_point"}
     assert learned_keys <= set(figures)
+    assert not [k for k in figures if "learned" in k] and "predictor" not in figures
+    assert figures["hydroelastic_modulus_Pa"] == HYDROELASTIC_MODULUS  # the shipped SDF's: two_stack sets none
+    with np.load(out / "trajectories.npz") as series:
+        assert "mujoco_p_WB" in series.files and not [k for k in series.files if k.startswith("learned")]
     for key in ("contact_point_error_median_m", "contact_point_error_max_m", "contact_normal_error_max_deg",
                 "wall_per_sim_s_mujoco"):
         assert math.isfinite(figures[key])

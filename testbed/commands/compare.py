@@ -1,4 +1,10 @@
-"""`testbed compare SCENE`: the twin run (Drake's contact vs the learned closed loop)."""
+"""`testbed compare SCENE`: the twin run (Drake's contact vs the learned closed loop, or
+MuJoCo), judged by the closed-loop gates of `testbed validate`.
+
+Exit status: 0 when every gate holds (or the learned model made no contact decision, so
+there is nothing to judge), 3 when a gate fails or the learned run diverged
+(testbed/validation/compare_verdict.py), 2 for bad input.
+"""
 
 from __future__ import annotations
 
@@ -7,69 +13,117 @@ from pathlib import Path
 from learned_contact import sources
 from testbed.commands import timestamp
 from testbed.containers import HYDROELASTIC_MODULUS
-from testbed.errors import TestbedError
-from testbed.learned_force_law import law_modulus
+from testbed.errors import ScenarioError, TestbedError
 
 NAME = "compare"
-HELP = "run a scene with Drake's contact and with the learned model in the loop; write compare.json"
+HELP = ("run a scene with Drake's contact and with the learned model in the loop, judge it by the closed-loop "
+        "gates; write compare.json (exit 3 if a gate fails)")
+PREDICTOR_FIELD = "effects.learned_dynamics.predictor"
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("scene", help="a scene YAML file or the name of a shipped scene")
     parser.add_argument("--predictor", default=None,
                         help=f"{sources.HELP}; default: the scene's learned_dynamics predictor if it declares "
-                             "one, else improved")
+                             "one, else improved (not with --engine mujoco)")
     parser.add_argument("--out", help="output directory (default reports/compare/<scene>-<predictor>-<time>)")
     parser.add_argument("--duration", type=float, help="simulated time [s] (default: the scene's)")
+    parser.add_argument("--set", action="append", metavar="KEY=VALUE",
+                        help="override a scene field, as `testbed run --set` (e.g. --set containers[1].mass=5000)")
     parser.add_argument("--no-replay", action="store_true", help="skip the Meshcat ghost replay (replay.html)")
-    parser.add_argument("--engine", choices=("learned", "mujoco"), default="learned",
-                        help="what runs beside Drake: the learned closed loop (default) or MuJoCo")
-    parser.add_argument("--params", choices=("matched", "default"), default="matched",
-                        help="MuJoCo's contact parameters (with --engine mujoco): matched to Drake or MuJoCo's defaults")
+    parser.add_argument("--engine", choices=("learned", "mujoco", "all"), default="learned",
+                        help="what runs beside Drake: the learned closed loop (default), MuJoCo, or all: Drake point, "
+                             "the learned loop and MuJoCo in one table against one Drake run at the learned law's "
+                             "modulus (testbed/engines/three_way.py)")
+    parser.add_argument("--params", choices=("matched", "default"), default=None,
+                        help="MuJoCo's contact parameters (only with --engine mujoco or all): matched to Drake "
+                             "(default) or MuJoCo's defaults")
+
+
+def check_options(args) -> None:
+    """Refuses options that do not apply to the chosen engine (TestbedError: exit 2)."""
+    if args.engine == "mujoco" and args.predictor is not None:
+        raise TestbedError("--predictor does not apply with --engine mujoco (MuJoCo uses its own contact, no predictor)")
+    if args.engine == "learned" and args.params is not None:
+        raise TestbedError("--params applies only with --engine mujoco or all (the learned loop has no MuJoCo "
+                           "parameters)")
+    if args.duration is not None and not args.duration > 0:
+        raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
 
 
 def run(args) -> int:
     from testbed.compare import compare_scene
-    from testbed.scenario import load_scenario, resolve_scene_path
+    from testbed.scenario import load_scenario, resolve_scene_path, source_label
+    from testbed.validation.compare_verdict import judge
 
-    if args.duration is not None and not args.duration > 0:
-        raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
+    check_options(args)
     path = resolve_scene_path(args.scene)
-    scenario = load_scenario(path)
+    scenario = load_scenario(path, overrides=args.set or [])
+    source = source_label(path, args.set)
     if args.engine == "mujoco":  # testbed/engines/mujoco_compare.py (H-mujoco)
         from testbed.engines.mujoco_compare import compare_mujoco, format_mujoco_figures
 
-        out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-mujoco-{args.params}-{timestamp()}"
-        print(format_mujoco_figures(compare_mujoco(scenario, params=args.params, out_dir=out, duration=args.duration,
-                                                   replay=not args.no_replay, source=path)))
+        params = args.params or "matched"
+        out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-mujoco-{params}-{timestamp()}"
+        print(format_mujoco_figures(compare_mujoco(scenario, params=params, out_dir=out, duration=args.duration,
+                                                   replay=not args.no_replay, source=source)))
         print(f"  output: {out}")
+        print("verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts MuJoCo "
+              "beside it against the same Drake run)")
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")
-    label = sources.label(predictor)
+    label = sources.label(predictor) + ("-all" if args.engine == "all" else "")
     out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
-    figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
-                            replay=not args.no_replay, source=path)
-    print(format_figures(figures))
-    print(f"  containers at {law_modulus(scenario):.0e} Pa in every run (the learned law's modulus; shipped SDF: "
-          f"{HYDROELASTIC_MODULUS:.0e} Pa, sdf/README.md says why they differ)")
-    print(f"  output: {out}")
-    return 0
+    verdict = judge
+    if args.engine == "all":  # one Drake reference at one modulus for point, learned, MuJoCo
+        from testbed.engines import three_way
+
+        three_way.check_three_way(scenario)
+        scenario = three_way.at_law_modulus(scenario)
+        params = args.params or "matched"
+
+        def verdict(figures, directory, runs):
+            return {**judge(figures, directory), "three_way": three_way.rows(scenario, figures, runs, params)}
+    try:
+        figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
+                                replay=not args.no_replay, source=source, judge=verdict)
+    except ScenarioError as e:
+        if args.predictor is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
+            raise TestbedError(f"--predictor {args.predictor}: {e.problem}") from None
+        raise
+    print(format_figures(figures, out))
+    return figures["exit_status"]
 
 
-def format_figures(f: dict) -> str:
-    """The few lines `testbed compare` prints."""
-    verdict = "DIVERGED" if f["diverged"] else ("ran, but left Drake's path" if f["departed"] else "ran")
+def modulus_line(modulus: float, why: str) -> str:
+    """The hydroelastic modulus every mode prints (the figures are against a truth at it)."""
+    return f"  Drake's containers at a hydroelastic modulus of {modulus:.0e} Pa ({why})"
+
+
+def format_figures(f: dict, out=None) -> str:
+    """The lines `testbed compare` prints: what happened, the figures, the output directory
+    `out`, the gates, and last the verdict."""
     from testbed.compare.costs import breakdown_line
     from testbed.compare.metrics import error_lines
+    from testbed.validation.compare_verdict import NOT_JUDGED, headline, verdict_lines
 
-    lines = [
-        f"scene {f['scene']} with the {f['predictor']} predictor in the loop: {verdict} "
-        f"({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
-        *error_lines(f, "learned", f["wall_per_sim_s_learned"]),
-    ]
+    lines = [f"scene {f['scene']} with the {f['predictor']} predictor in the loop: {headline(f)} "
+             f"({f['simulated_s_learned']:g} of {f['duration_s']:g} s simulated)"]
+    errors = error_lines(f, "learned", f["wall_per_sim_s_learned"])
+    lines += errors[1:] if f["verdict"] == NOT_JUDGED else errors  # no position error "score" for 0 decisions
     cost = breakdown_line(f.get("cost_learned"))
-    if cost:
+    if cost and f["verdict"] != NOT_JUDGED:
         slower = f.get("speedup_vs_truth", 1.0) < 1.0
         lines.append(f"  the learned run's wall time{' (not faster than Drake hydroelastic here)' if slower else ''}: {cost}")
+    lines.append(modulus_line(f["hydroelastic_modulus_Pa"], f"the learned law's, in every run of this comparison; the "
+                              f"shipped SDF's is {HYDROELASTIC_MODULUS:.0e} Pa, sdf/README.md says why they differ"))
+    if "three_way" in f:
+        from testbed.engines.three_way import format_table
+
+        lines += format_table(f["three_way"])
+    if out is not None:
+        lines.append(f"  output: {out}")
+    lines += verdict_lines(f)
     return "\n".join(lines)
+

@@ -24,7 +24,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from testbed.scenario import load_scenario, resolve_scene_path
+    from testbed.scenario import load_scenario, resolve_scene_path, source_label
     from testbed.simulation import run_scenario
 
     path = resolve_scene_path(args.scene)
@@ -34,7 +34,8 @@ def run(args) -> int:
     if not args.stall_timeout > 0:
         raise TestbedError(f"--stall-timeout: expected a positive number of seconds, got {args.stall_timeout}")
     out = Path(args.out) if args.out else Path("reports") / "runs" / f"{scenario.name}-{timestamp()}"
-    result = run_scenario(scenario, out_dir=out, duration=args.duration, progress=not args.quiet, source=path,
+    result = run_scenario(scenario, out_dir=out, duration=args.duration, progress=not args.quiet,
+                          source=source_label(path, args.set),
                           stall_timeout=args.stall_timeout)
     print(format_summary(result.summary))
     print(f"  records: {out}")

@@ -8,21 +8,22 @@ from testbed.viz.replay import finish_recording
 from testbed.viz.server import start_meshcat
 
 
-def write_series(path, runs: dict) -> None:
-    """trajectories.npz: per run kind K ('truth', 'learned', 'point'): K_time (n,) [s],
+def write_series(path, runs: dict, under_test: str = "learned") -> None:
+    """trajectories.npz: per run kind K ('truth', 'learned' or 'mujoco', 'point'): K_time (n,) [s],
     K_p_WB (n, m, 3) [m], K_q_WB (n, m, 4) (w, x, y, z), K_V_WB (n, m, 6), K_energy (n,) [J];
-    names (m,) the free containers; position_error (n, m) [m] learned vs truth."""
+    names (m,) the free containers; position_error (n, m) [m] the run `under_test` vs truth."""
     arrays = {"names": np.array(runs["truth"].names)}
     for kind, t in runs.items():
         arrays.update({f"{kind}_time": t.time, f"{kind}_p_WB": t.p_WB, f"{kind}_q_WB": t.q_WB,
                        f"{kind}_V_WB": t.V_WB, f"{kind}_energy": t.energy})
-    n = len(runs["learned"].time)
-    arrays["position_error"] = np.linalg.norm(runs["learned"].p_WB - runs["truth"].p_WB[:n], axis=2)
+    n = len(runs[under_test].time)
+    arrays["position_error"] = np.linalg.norm(runs[under_test].p_WB - runs["truth"].p_WB[:n], axis=2)
     np.savez_compressed(path, **arrays)
 
 
-def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
-    """Position error [mm] of each container and energy change [J] of both runs over time."""
+def plot_divergence(path, truth, learned, scene: str, predictor: str, label: str = "learned") -> None:
+    """Position error [mm] of each container and energy change [J] of both runs over time;
+    `label` names the run under test (title and legend: 'learned', 'MuJoCo')."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -34,10 +35,10 @@ def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
     for k, name in enumerate(learned.names):
         ax1.plot(learned.time, err[:, k], label=name)
     ax1.set_ylabel("position error [mm]")
-    ax1.set_title(f"{scene}: learned ({predictor}) vs Drake")
+    ax1.set_title(f"{scene}: {label} ({predictor}) vs Drake")
     ax1.legend(fontsize="small")
     ax2.plot(truth.time, truth.energy - truth.energy[0], label="Drake")
-    ax2.plot(learned.time, learned.energy - learned.energy[0], label="learned")
+    ax2.plot(learned.time, learned.energy - learned.energy[0], label=label)
     ax2.set_ylabel("E(t) - E(0) [J]")
     ax2.set_xlabel("time [s]")
     ax2.legend(fontsize="small")
@@ -46,8 +47,9 @@ def plot_divergence(path, truth, learned, scene: str, predictor: str) -> None:
     plt.close(fig)
 
 
-def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02) -> None:
-    """A self-contained Meshcat replay: learned boxes solid, the truth as translucent ghosts."""
+def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02, label: str = "learned") -> None:
+    """A self-contained Meshcat replay: the run under test's boxes solid (under /<label>/ in
+    the scene tree), the truth as translucent ghosts."""
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.geometry import Box, Rgba
     from pydrake.math import RigidTransform
@@ -58,11 +60,11 @@ def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.0
     for c in specs + fixed:
         size = c.container_type().size
         r, g, b, _ = c.container_type().rgba
-        meshcat.SetObject(f"/learned/{c.name}", Box(*size), Rgba(r, g, b, 1.0))
+        meshcat.SetObject(f"/{label}/{c.name}", Box(*size), Rgba(r, g, b, 1.0))
         if not c.fixed:
             meshcat.SetObject(f"/truth_ghost/{c.name}", Box(*size), Rgba(0.6, 0.9, 1.0, 0.35))
         else:
-            meshcat.SetTransform(f"/learned/{c.name}", c.pose())
+            meshcat.SetTransform(f"/{label}/{c.name}", c.pose())
     if scenario.ground:
         meshcat.SetObject("/quay", Box(60.0, 60.0, 0.2), Rgba(0.5, 0.5, 0.5, 1.0))
         meshcat.SetTransform("/quay", RigidTransform([0.0, 0.0, -0.1]))
@@ -73,7 +75,7 @@ def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.0
         for i, c in enumerate(specs):
             meshcat.SetTransform(f"/truth_ghost/{c.name}", _pose(Quaternion, RigidTransform, truth, k, i), t)
             if k < len(learned.time):
-                meshcat.SetTransform(f"/learned/{c.name}", _pose(Quaternion, RigidTransform, learned, k, i), t)
+                meshcat.SetTransform(f"/{label}/{c.name}", _pose(Quaternion, RigidTransform, learned, k, i), t)
     html = finish_recording(meshcat)
     with open(path, "w") as f:
         f.write(html)

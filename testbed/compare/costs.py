@@ -30,13 +30,14 @@ LABELS = {"drake_step": "Drake's step", "learned_system": "learned system", "pre
 
 def breakdown(costs: dict, wall_s: float, steps: int) -> dict:
     """compare.json's `cost_learned` from LearnedDynamics.costs() over a run of wall_s [s]
-    and `steps` plant steps: the four parts [s], wall_s, steps, the call counts and each
-    part's fraction of wall_s and [us] per step."""
+    and `steps` plant steps: the four parts [s], wall_s, steps, the call counts (and
+    predictor_pairs, the pair-steps asked), each part's fraction of wall_s and [us] per step."""
     calc, predict, record = costs["calc_s"], costs["predict_s"], costs["record_s"]
     out = {"wall_s": float(wall_s), "steps": int(steps),
            "predictor_s": predict, "learned_system_s": max(0.0, calc - predict), "recording_s": record,
            "drake_step_s": max(0.0, wall_s - calc - record),
-           "calc_calls": costs["calc_calls"], "predictor_calls": costs["predict_calls"]}
+           "calc_calls": costs["calc_calls"], "predictor_calls": costs["predict_calls"],
+           "predictor_pairs": costs.get("predict_pairs", 0)}
     for part in PARTS:
         out[f"{part}_fraction"] = out[f"{part}_s"] / wall_s if wall_s > 0 else float("nan")
         out[f"{part}_us_per_step"] = 1e6 * out[f"{part}_s"] / steps if steps else float("nan")

@@ -11,6 +11,7 @@ from testbed.compare import artifacts, costs
 from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
 from testbed.errors import TestbedError
+from testbed.learned_force_law import law_modulus
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
@@ -27,7 +28,7 @@ def _load(scene, source=None):
 
 def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: float | None = None,
                   with_point: bool = True, replay: bool = True, record_every: int | None = None,
-                  source=None) -> dict:
+                  source=None, judge=None) -> dict:
     """Runs `scene` (a name, path or Scenario) with Drake's contact (the scene's model),
     with the learned closed loop (`predictor`: "improved", "paper" or a weights path; None:
     the scene's learned_dynamics.predictor if it declares the effect, else "improved") and,
@@ -36,14 +37,18 @@ def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: flo
     (when `replay`) replay.html atomically, and returns the compare.json figures.
     Raises ScenarioError (bad scene or predictor) before anything is simulated or written.
     source: the file a loaded Scenario came from (named in error messages).
+    judge: None, or (figures, directory, runs) -> dict of keys merged into compare.json,
+    called once trajectories.npz is in `directory`; runs: {'truth', 'learned'[, 'point']:
+    Trajectory} (the verdict: testbed/validation/compare_verdict.py).
     """
     (figures,) = compare_predictors(scene, [predictor], out_dirs=[out_dir], duration=duration,
-                                    with_point=with_point, replay=replay, record_every=record_every, source=source)
+                                    with_point=with_point, replay=replay, record_every=record_every, source=source,
+                                    judge=judge)
     return figures
 
 
 def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = None, with_point: bool = True,
-                       replay: bool = True, record_every: int | None = None, source=None) -> list[dict]:
+                       replay: bool = True, record_every: int | None = None, source=None, judge=None) -> list[dict]:
     """compare_scene for each of `predictors`, sharing one truth run (and one point run):
     out_dirs[i] receives predictors[i]'s files. Every scene is built (and so every
     predictor loaded) before anything runs. Returns the figures, in order."""
@@ -65,11 +70,15 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
         runs = {"truth": truth, "learned": run, **({"point": point} if point else {})}
         figures = {"scene": scenario.name, "predictor": effect.config.predictor,
                    "predictor_kind": getattr(effect.predictor, "kind", effect.config.predictor),
-                   "duration_s": duration, "time_step_s": h, "record_period_s": every * h}
+                   "duration_s": duration, "time_step_s": h, "record_period_s": every * h,
+                   "hydroelastic_modulus_Pa": law_modulus(scenario)}  # every run's containers (runs.variant)
         figures.update(compare_figures(truth, run, scenario.containers, effect.predictor))
         for kind, traj in runs.items():
             figures[f"wall_per_sim_s_{kind}"] = traj.wall_s / max(traj.simulated_s, 1e-12)
         figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_learned"]
+        # how often the model was asked: container pairs the effect watches, pair-steps it predicted
+        figures["container_pairs"] = len(effect.pairs)
+        figures["pair_steps_learned"] = int(run.costs.get("predict_pairs", 0))
         if run.costs:  # where the learned run's wall time went (testbed/compare/costs.py)
             figures["cost_learned"] = costs.breakdown(run.costs, run.wall_s, int(round(run.simulated_s / h)))
         if point:
@@ -77,15 +86,17 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
         figures["stability_max"] = max((max(r["normal"], r["tilt"]) for r in effect.stability), default=0.0)
         figures["learned_dynamics_config"] = dataclasses.asdict(effect.config)
         figures["stability"] = [{**r, "pair": list(r["pair"])} for r in effect.stability]
-        _write(out_dir, figures, runs, scenario, replay)
+        _write(out_dir, figures, runs, scenario, replay, judge)
         figures["out_dir"] = str(Path(out_dir))
         out.append(figures)
     return out
 
 
-def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool) -> None:
+def _write(out_dir, figures: dict, runs: dict, scenario, replay: bool, judge=None) -> None:
     with atomic_directory(out_dir) as tmp:
         artifacts.write_series(tmp / "trajectories.npz", runs)
+        if judge is not None:
+            figures.update(judge(figures, tmp, runs))
         artifacts.plot_divergence(tmp / "divergence.png", runs["truth"], runs["learned"], scenario.name,
                                   figures["predictor"])
         if replay:

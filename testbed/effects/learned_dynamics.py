@@ -191,16 +191,17 @@ class LearnedDynamics(LeafSystem):
 
     def reset_costs(self) -> None:
         """Zeroes the cost counters (see costs())."""
-        self._cost = np.zeros(5)  # calc_s, predict_s, record_s [s]; calc_calls, predict_calls
+        self._cost = np.zeros(6)  # calc_s, predict_s, record_s [s]; calc_calls, predict_calls, predict_pairs
 
     def costs(self) -> dict:
         """Wall time [s, perf_counter] spent since reset_costs(): calc_s in the output's calc
         (the predictor's call included) and the anchors' update, predict_s in the predictor's
         call, record_s in the records (shadow truth included); calc_calls, predict_calls: how
-        many of each."""
+        many of each; predict_pairs: the container pairs the predictor was asked about, summed
+        over its calls (pair-steps: 0 when the model made no contact decision)."""
         c = self._cost
         return {"calc_s": float(c[0]), "predict_s": float(c[1]), "record_s": float(c[2]),
-                "calc_calls": int(c[3]), "predict_calls": int(c[4])}
+                "calc_calls": int(c[3]), "predict_calls": int(c[4]), "predict_pairs": int(c[5])}
 
     def touching(self, container: int) -> bool:
         """Whether container (scene index) was in learned contact at the latest computed step."""
@@ -257,6 +258,7 @@ class LearnedDynamics(LeafSystem):
         point_A, normal_A = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
         self._cost[1] += time.perf_counter() - start
         self._cost[4] += 1
+        self._cost[5] += len(keep)
         c = self._cfg
         out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next = self._K.pair_wrenches(
             p, R, w, v, self._mass, self._I_Bo, ia, ib, self._kappa[keep], np.ascontiguousarray(point_A),

@@ -1,9 +1,10 @@
 """The twin run against MuJoCo: `testbed compare SCENE --engine mujoco`.
 
 Reuses testbed/compare (H-loop's twin-run machinery): the same Drake variants and
-Trajectory records, `compare_figures` for the compare.json keys (the MuJoCo run sits
-where the learned run sits, so every key of the learned compare is there), the same
-trajectories.npz (MuJoCo under the `learned_` prefix), divergence plot and ghost replay.
+Trajectory records, `compare_figures` for the compare.json figures (the learned
+compare's, with MuJoCo named as MuJoCo: simulated_s_mujoco, drift_m_per_min_mujoco,
+mujoco_error, wall_per_sim_s_mujoco; MUJOCO_KEYS), the same trajectories.npz (MuJoCo under
+the `mujoco_` prefix), divergence plot and ghost replay (MuJoCo in title and legend).
 Added: MuJoCo's per-step contacts, reduced per body pair to a point and normal
 (mujoco_run.py), against Drake's centre of pressure `p_W_cop` and normal `n_W` of the
 same step and pair (contact_log rows, every `record_every` steps), and the wall time
@@ -22,14 +23,27 @@ from testbed.builder import build_scene
 from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures, error_lines
 from testbed.compare.runs import Trajectory, run_variant, variant
+from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.effects.contact_log import ContactLogConfig
 from testbed.engines.mujoco import check_supported
 from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
+from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.physics import percentile_summary
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 
 RECORD_PERIOD = 0.01  # [s] spacing of the compared states (testbed/compare/twin.py's default)
+# compare_figures' names for the run under test -> compare.json's for a MuJoCo run
+MUJOCO_KEYS = {"simulated_s_learned": "simulated_s_mujoco", "drift_m_per_min_learned": "drift_m_per_min_mujoco",
+               "learned_error": "mujoco_error"}
+
+
+def drake_modulus(scenario) -> float:
+    """[Pa] the containers' hydroelastic modulus in the Drake truth MuJoCo is judged against:
+    the scene's effects.contact.hydroelastic_modulus, else the shipped SDF's."""
+    contact = scenario.effects.contact
+    given = contact.hydroelastic_modulus if contact is not None else None
+    return HYDROELASTIC_MODULUS if given is None else float(given)
 
 
 class SatDepth:
@@ -132,8 +146,8 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
                    record_every: int | None = None, time_step: float | None = None, source=None) -> dict:
     """Twin run of `scene` (name, path or Scenario): Drake (the scene's contact model, the
     ground truth) and MuJoCo (`params` 'matched' | 'default'). Returns the compare.json
-    figures (the learned compare's keys, MuJoCo in the learned slot, plus contact_* and
-    wall_per_sim_s_mujoco); writes out_dir/compare.json, trajectories.npz, divergence.png
+    figures (the learned compare's, MuJoCo's named by MUJOCO_KEYS, plus contact_*,
+    wall_per_sim_s_mujoco and hydroelastic_modulus_Pa, Drake's); writes out_dir/compare.json, trajectories.npz, divergence.png
     (and replay.html when `replay`) atomically when out_dir is given.
     bare_truth: time Drake again without logging (the truth's wall time); with_point: time
     Drake point contact as well; source: the file a loaded Scenario came from (for messages).
@@ -154,7 +168,7 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     mj_run = simulate_mujoco(scenario, duration=duration, params=params)
     mujoco = trajectory_of(mj_run, every)
     truth, drake_contacts = drake_truth(scenario, duration, every, source)
-    runs = {"truth": truth, "learned": mujoco}
+    runs = {"truth": truth, "mujoco": mujoco}
     walls = {"truth": truth.wall_s / max(truth.simulated_s, 1e-12)}
     if bare_truth:
         bare = run_variant(engine_variant(scenario, "truth"), duration, every, source)
@@ -162,14 +176,15 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     if with_point:
         runs["point"] = run_variant(engine_variant(scenario, "point"), duration, every, source)
         walls["point"] = runs["point"].wall_s / max(runs["point"].simulated_s, 1e-12)
-    figures = {"scene": scenario.name, "engine": "mujoco", "predictor": f"mujoco-{params}", "params": params,
+    figures = {"scene": scenario.name, "engine": "mujoco", "params": params,
                "mujoco_version": mj_run.summary["mujoco_version"], "duration_s": duration, "time_step_s": h,
-               "record_period_s": every * h}
-    figures.update(compare_figures(truth, mujoco, [c for c in scenario.containers if not c.fixed], SatDepth()))
+               "record_period_s": every * h, "hydroelastic_modulus_Pa": drake_modulus(scenario)}
+    compared = compare_figures(truth, mujoco, [c for c in scenario.containers if not c.fixed], SatDepth())
+    figures.update({MUJOCO_KEYS.get(k, k): v for k, v in compared.items()})
     figures["wall_per_sim_s_truth_logged"] = truth.wall_s / max(truth.simulated_s, 1e-12)
     for kind, value in walls.items():
         figures[f"wall_per_sim_s_{kind}"] = value
-    figures["wall_per_sim_s_learned"] = figures["wall_per_sim_s_mujoco"] = mj_run.summary["wall_per_sim_s"]
+    figures["wall_per_sim_s_mujoco"] = mj_run.summary["wall_per_sim_s"]
     figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_mujoco"]
     if with_point:
         figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures["wall_per_sim_s_mujoco"]
@@ -177,10 +192,11 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     figures.update(contact_figures(drake_contacts, mj_run.tables["contacts"]))
     if out_dir is not None:
         with atomic_directory(out_dir) as tmp:
-            artifacts.write_series(tmp / "trajectories.npz", runs)
-            artifacts.plot_divergence(tmp / "divergence.png", truth, mujoco, scenario.name, f"MuJoCo ({params})")
+            artifacts.write_series(tmp / "trajectories.npz", runs, under_test="mujoco")
+            artifacts.plot_divergence(tmp / "divergence.png", truth, mujoco, scenario.name,
+                                      f"{params} contact parameters", label="MuJoCo")
             if replay:
-                artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, mujoco)
+                artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, mujoco, label="mujoco")
             (tmp / "mujoco.xml").write_text(mj_run.mjcf)
             write_json(tmp / "compare.json", figures)
         figures["out_dir"] = str(Path(out_dir))
@@ -189,10 +205,15 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
 
 def format_mujoco_figures(f: dict) -> str:
     """The few lines `testbed compare SCENE --engine mujoco` prints."""
+    other = ("" if f["hydroelastic_modulus_Pa"] == KAPPA_MODULUS else
+             f"; `testbed compare` without --engine runs the learned loop and its Drake truth at the learned law's "
+             f"{KAPPA_MODULUS:.0e} Pa: its figures are against another truth")
     lines = [
         f"scene {f['scene']} in MuJoCo {f['mujoco_version']} ({f['params']} contact parameters): "
-        f"{'DIVERGED' if f['diverged'] else 'ran'} ({f['simulated_s_learned']:g} of {f['duration_s']:g} s)",
+        f"{'DIVERGED' if f['diverged'] else 'ran'} ({f['simulated_s_mujoco']:g} of {f['duration_s']:g} s)",
         *error_lines(f, "MuJoCo", f["wall_per_sim_s_mujoco"]),
+        f"  Drake's containers at a hydroelastic modulus of {f['hydroelastic_modulus_Pa']:.0e} Pa (the scene's ground "
+        f"truth{other})",
     ]
     if "contact_point_error_median_m" in f:
         lines.append(f"  contact point vs Drake's centre of pressure: median {f['contact_point_error_median_m'] * 1e3:.1f} mm, "

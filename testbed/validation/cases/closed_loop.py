@@ -134,6 +134,18 @@ def series_figures(out_dir, tol_m: float = FINAL_POSITION_TOL_M) -> dict:
             "final_tilt_max_deg": tilt[0], "final_tilt_max_truth_deg": tilt[1]}
 
 
+def case_result(scene: str, duration: float, runs) -> dict:
+    """A closed-loop case's result (what `gates` judges) from twin runs against one truth:
+    runs = [(predictor, compare.json figures, the twin run's directory)]. Also used by
+    `testbed compare` (testbed/validation/compare_verdict.py) to judge its run the same way."""
+    out = {name: {**{k: f.get(k) for k in KEYS}, **series_figures(d)} for name, f, d in runs}
+    first = runs[0][1]
+    drop = first["potential_drop_max_J"]
+    return {"scene": scene, "duration_s": float(duration), "time_step_s": first["time_step_s"],
+            "resting": scene in RESTING_SCENES, "largest_potential_drop_J": drop,
+            "energy_limit_J": ENERGY_FRACTION * drop, "predictors": out}
+
+
 @register
 class ClosedLoopCase(CaseKind):
     name = "closed_loop"
@@ -160,14 +172,7 @@ class ClosedLoopCase(CaseKind):
             dirs = [f"{tmp}/{p}" for p in predictors]
             figures = compare_predictors(scene, list(predictors), out_dirs=dirs, duration=duration, with_point=True,
                                          replay=False)
-            out = {}
-            for name, f, d in zip(predictors, figures, dirs):
-                out[name] = {k: f.get(k) for k in KEYS}
-                out[name].update(series_figures(d))
-        drop = figures[0]["potential_drop_max_J"]
-        return {"scene": scene, "duration_s": float(duration), "time_step_s": figures[0]["time_step_s"],
-                "resting": scene in RESTING_SCENES, "largest_potential_drop_J": drop,
-                "energy_limit_J": ENERGY_FRACTION * drop, "predictors": out}
+            return case_result(scene, duration, list(zip(predictors, figures, dirs)))
 
     def gates(self, record: dict) -> list[Gate]:
         s, cid = record["result"], record["id"]

@@ -1,0 +1,87 @@
+"""One ground truth for every candidate: `testbed compare SCENE --engine all`.
+
+The learned comparison runs Drake at the learned law's modulus (1e8 Pa unless the scene
+sets one) and `--engine mujoco` at the scene's own (the shipped SDF's 1e9 Pa), so their
+figures are errors against different truths. Here the scene is first set to the learned
+law's modulus (effects.contact.hydroelastic_modulus = law_modulus), then ONE Drake
+hydroelastic run at that modulus is the reference for three candidates from the same
+initial state: Drake point contact, the learned closed loop (the twin run of
+testbed/compare, gated as usual) and MuJoCo with contact parameters matched to that
+same Drake (testbed/engines/mujoco.py follows the scene's modulus).
+
+Every row's figures come from testbed.compare.metrics.compare_figures against that one
+truth run, with the separating-axis depth (SatDepth) for the penetration of all three;
+wall times are per simulated second [s], measured in this one process.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+from testbed.compare.metrics import compare_figures
+from testbed.compare.runs import variant
+from testbed.engines.mujoco import check_supported
+from testbed.engines.mujoco_compare import SatDepth, trajectory_of
+from testbed.engines.mujoco_run import simulate_mujoco
+from testbed.learned_force_law import law_modulus
+
+# the figures of each row (compare_figures' keys; lengths [m], angles [deg], energies [J])
+ROW_KEYS = ("diverged", "simulated_s_learned", "position_error_max_m", "final_position_error_max_m",
+            "final_angle_error_max_deg", "max_penetration_m", "energy_gain_max_J")
+
+
+def at_law_modulus(scenario):
+    """A copy of `scenario` whose containers are at the learned law's modulus
+    (effects.contact.hydroelastic_modulus set), for every engine alike."""
+    out = copy.deepcopy(scenario)
+    if out.effects.contact is not None:
+        out.effects.contact = dataclasses.replace(out.effects.contact, hydroelastic_modulus=law_modulus(scenario))
+    return out
+
+
+def check_three_way(scenario) -> None:
+    """Raises UnsupportedSceneError before anything runs when MuJoCo cannot run the scene."""
+    check_supported(variant(scenario, "truth"))
+
+
+def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
+    """compare.json's `three_way`: {'reference', 'hydroelastic_modulus_Pa', 'rows': [{'model',
+    ROW_KEYS (simulated_s_learned as 'simulated_s'), 'wall_per_sim_s', 'speedup_vs_truth'}]}
+    for Drake point, the learned loop and MuJoCo (`params`) against runs['truth'].
+    scenario: at the law's modulus (at_law_modulus); figures: the learned twin run's;
+    runs: its trajectories ('truth', 'learned', 'point')."""
+    h = scenario.plant.time_step
+    every = max(1, int(round(figures["record_period_s"] / h)))
+    mj = simulate_mujoco(variant(scenario, "truth"), duration=figures["duration_s"], params=params)
+    mujoco = trajectory_of(mj, every)
+    truth = runs["truth"]
+    truth_wall = truth.wall_s / max(truth.simulated_s, 1e-12)
+    out = []
+    candidates = (("Drake point", runs["point"]), (f"learned ({figures['predictor']})", runs["learned"]),
+                  (f"MuJoCo ({params})", mujoco))
+    for name, traj in candidates:
+        f = compare_figures(truth, traj, scenario.containers, SatDepth())
+        wall = mj.summary["wall_per_sim_s"] if traj is mujoco else traj.wall_s / max(traj.simulated_s, 1e-12)
+        row = {"model": name, **{k.replace("_learned", ""): f[k] for k in ROW_KEYS}}
+        row.update(wall_per_sim_s=wall, speedup_vs_truth=truth_wall / wall)
+        out.append(row)
+    return {"reference": f"Drake hydroelastic at {figures['hydroelastic_modulus_Pa']:.0e} Pa (one run)",
+            "hydroelastic_modulus_Pa": figures["hydroelastic_modulus_Pa"], "wall_per_sim_s_truth": truth_wall,
+            "mujoco_version": mj.summary["mujoco_version"], "rows": out}
+
+
+def format_table(three: dict) -> list[str]:
+    """The three-way table `testbed compare --engine all` prints."""
+    head = ("model", "ran [s]", "pos err max [mm]", "final pos [mm]", "final angle [deg]", "max pen [mm]",
+            "energy gain [J]", "wall/sim s [s]", "x vs hydroelastic")
+    body = [(r["model"] + (" DIVERGED" if r["diverged"] else ""), f"{r['simulated_s']:g}",
+             f"{r['position_error_max_m'] * 1e3:.3f}", f"{r['final_position_error_max_m'] * 1e3:.3f}",
+             f"{r['final_angle_error_max_deg']:.4f}", f"{r['max_penetration_m'] * 1e3:.3f}",
+             f"{r['energy_gain_max_J']:.3g}", f"{r['wall_per_sim_s']:.4f}", f"{r['speedup_vs_truth']:.2f}")
+            for r in three["rows"]]
+    widths = [max(len(x) for x in col) for col in zip(head, *body)]
+    lines = [f"  against one reference: {three['reference']}, wall {three['wall_per_sim_s_truth']:.3f} s per "
+             "simulated s; penetration by separating-axis depth for every row"]
+    lines += ["  " + "  ".join(x.ljust(w) for x, w in zip(row, widths)).rstrip() for row in (head, *body)]
+    return lines
