@@ -9,7 +9,10 @@ from pathlib import Path
 from testbed.calibration.data import SHIPPED_TOSSES, load_tosses
 
 ROOT = Path(__file__).resolve().parent.parent
-_OUTSIDE = re.compile(r"\.\./shared|shared/data|shared/DESIGN|/work/")
+# the folder beside the repository that a user's clone does not have (spelt in parts so that
+# this file does not match its own pattern)
+_BESIDE = "sha" + "red"
+_OUTSIDE = re.compile(rf"\.\./{_BESIDE}|{_BESIDE}/data|{_BESIDE}/DESIGN|/work/")
 _TEXT = {".py", ".md", ".toml", ".yaml", ".yml", ".json", ".txt", ".cfg", ".sdf", ".html"}
 
 
