@@ -22,6 +22,7 @@ without rotation, and the overhang lies along A's +x.
 from __future__ import annotations
 
 import numpy as np
+from bench_models import GeometricModel
 
 
 class Biased:
@@ -57,18 +58,10 @@ class TiltedNormal:
         return point, np.asarray(normal) @ self._R.T
 
 
-class Prior:
+class Prior(GeometricModel):
     """learned_contact.gates.GeometricPrior: the improved predictor's network correction zeroed."""
 
     name = "geometric prior alone"
-
-    def __init__(self):
-        from learned_contact.gates import GeometricPrior
-
-        self._prior = GeometricPrior()
-
-    def predict(self, p_AB, R_AB, *, size_A, size_B):
-        return self._prior.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
 
 
 class DrakePoint:
