@@ -148,7 +148,8 @@ def to_markdown(title: str, sections, *, brief: bool = False) -> str:
 STYLE = ("body{font-family:sans-serif;max-width:70em;margin:2em auto;color:#222}table{border-collapse:collapse;"
          "margin:1em 0;font-size:90%}td,th{border:1px solid #ccc;padding:3px 7px;text-align:right}"
          "th{background:#f0f0f0}.verdict{font-size:140%;font-weight:bold}.pass{color:#17803d}.fail{color:#b3261e}"
-         "img{max-width:100%}.env{color:#777;font-size:85%}pre{background:#f7f7f7;padding:1em;overflow:auto}")
+         "img{max-width:100%}.env{color:#777;font-size:85%}pre{background:#f7f7f7;padding:1em;overflow:auto}"
+         ".toc{font-size:85%;line-height:1.6;color:#555}")
 
 
 def _html_block(block) -> str:
@@ -171,14 +172,36 @@ def _html_block(block) -> str:
     raise TypeError(f"not a document block: {type(block).__name__}")
 
 
+def anchor(title: str, taken: set) -> str:
+    """A unique HTML id for a section title ('Closed loop: the ...' -> 'closed-loop-the-...')."""
+    base = "".join(c if c.isalnum() else "-" for c in title.lower()).strip("-")
+    base = "-".join(part for part in base.split("-") if part) or "section"
+    name, n = base, 1
+    while name in taken:
+        n += 1
+        name = f"{base}-{n}"
+    taken.add(name)
+    return name
+
+
 def to_html(title: str, sections) -> str:
-    """The whole document as one self-contained HTML page (figures embedded)."""
-    parts = [f"<h1>{html.escape(title)}</h1>"]
+    """The whole document as one self-contained HTML page (figures embedded), with a table
+    of contents (one line of links to the level-2 sections) under the title when there are
+    three or more of them."""
+    taken: set = set()
+    body, contents = [], []
     for s in _ordered(sections, False):
         if s.title:
             level = min(6, s.level)
-            parts.append(f"<h{level}>{html.escape(s.title)}</h{level}>")
-        parts += [_html_block(b) for b in s.blocks]
+            name = anchor(s.title, taken)
+            body.append(f"<h{level} id='{name}'>{html.escape(s.title)}</h{level}>")
+            if level == 2:
+                contents.append(f"<a href='#{name}'>{html.escape(s.title)}</a>")
+        body += [_html_block(b) for b in s.blocks]
+    parts = [f"<h1>{html.escape(title)}</h1>"]
+    if len(contents) >= 3:
+        parts.append("<nav class='toc'>Contents: " + " &middot; ".join(contents) + "</nav>")
+    parts += body
     return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
             f"<style>{STYLE}</style></head><body>{''.join(parts)}</body></html>\n")
 

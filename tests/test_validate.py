@@ -188,3 +188,38 @@ def test_in_scene_learned_gate_can_fail_and_pins_the_known_limit():
     assert gate("two_stack", "hydroelastic", 0.30) is False
     assert gate("two_stack", "hydroelastic", 0.02) is False  # stale pin
     assert gate("five_stack", "point", 0.5) is None
+
+
+def test_first_screen_counts_limits_and_candidates(smoke_run):
+    """The verdict counts passes and pinned known limits apart (as metrics.json's gates say),
+    lists every limit with its bound, and the summary table has a row per candidate the
+    records measured; index.html has a table of contents and puts the limits first."""
+    run_dir, _ = smoke_run
+    on_disk = json.loads((run_dir / "metrics.json").read_text())
+    gates = on_disk["gates"]
+    pinned = [g for g in gates if g["passed"] and g["name"].endswith("(known limit)")]
+    plain = [g for g in gates if g["passed"] and not g["name"].endswith("(known limit)")]
+    assert pinned, "smoke's two_stack in-scene point error is a pinned known limit"
+    assert on_disk["counts"] == {"passed": len(plain), "known_limits": len(pinned), "failed": 0}
+    summary = (run_dir / "summary.md").read_text()
+    verdict = summary.split("\n\n")[1]
+    assert verdict.startswith("**PASS**: ")
+    assert f"{len(plain)} gates pass, {len(pinned)} hold only within pinned known limits" in verdict
+    for g in pinned:  # each limit: its figure in mm and the bound it does not meet
+        assert f"- {g['name']}: {g['value'] * 1e3:.4g} mm against the {g['bound'] * 1e3:.4g} mm bound" in summary
+        assert g["value"] > g["bound"]
+    cases = on_disk["cases"].values()
+    expected = {"Drake point contact"}  # the closed loop times it; the point scenes shadow hydroelastic
+    expected |= {n for c in cases if c["kind"] == "closed_loop" for n in c["result"]["predictors"]}
+    expected |= {f"MuJoCo ({p} parameters)" for c in cases if c["kind"] == "engine" and c["result"].get("available")
+                 for p in c["result"]["mujoco"]}
+    assert {"improved", "paper", "MuJoCo (matched parameters)"} <= expected
+    block = summary.split("## Summary: each candidate against Drake\n\n")[1].split("\n\n")[0]
+    rows = [line.split(" | ")[0].lstrip("| ") for line in block.splitlines()[2:]]
+    assert len(rows) == len(expected), rows
+    assert all(sum(r == e or r.startswith(e + " (") for r in rows) == 1 for e in expected), (rows, expected)
+    html = (run_dir / "index.html").read_text()
+    assert "<nav class='toc'>" in html and "href='#summary-each-candidate-against-drake'" in html
+    assert "<h2 id='summary-each-candidate-against-drake'>" in html
+    table_html = html.split("<h2 id='all-gates'>")[1]
+    assert table_html.index(pinned[0]["name"]) < table_html.index(plain[0]["name"])

@@ -14,12 +14,13 @@ import os
 import platform
 from pathlib import Path
 
-from testbed.document import Bullets, Link, Section, Text, Verdict, figures, table, to_html, to_markdown
+from testbed.document import Bullets, Link, Section, Text, figures, table, to_html, to_markdown
 from testbed.records import json_default, write_atomic
 from testbed.validation import gates as gate_lib
 from testbed.validation.cases import ok_records, registry
-from testbed.validation.gates import Gate, format_value
+from testbed.validation.gates import Gate, is_known_limit, shown
 from testbed.validation.replays import replay_links
+from testbed.validation.summary import gate_counts, head_sections
 
 SCHEMA_VERSION = "testbed.validate/1"
 
@@ -84,6 +85,7 @@ def build_metrics(spec: dict, records: list[dict], replays: dict[str, str] | Non
         "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
         "environment": _environment(),
         "passed": all(g["passed"] for g in gates),
+        "counts": gate_counts(gates),
         "gates": gates,
         "cases": cases,
         "replays": replays or {},
@@ -92,15 +94,12 @@ def build_metrics(spec: dict, records: list[dict], replays: dict[str, str] | Non
 
 
 def sections(metrics: dict, records: list[dict]) -> list[Section]:
-    """The report: verdict, failed gates and replays first, then each kind's sections,
-    then every gate and the environment (the last two in index.html only)."""
+    """The report: the verdict (passes and pinned known limits counted apart, the limits
+    listed), the candidates' summary table, replays, then each kind's sections, then every
+    gate (failures and known limits first) and the environment (the last two in index.html
+    only)."""
     gates = metrics["gates"]
-    failed = [g for g in gates if not g["passed"]]
-    head = [Verdict(metrics["passed"], f"{len(gates) - len(failed)} of {len(gates)} gates pass.")]
-    if failed:
-        head.append(Bullets(tuple(f"FAILED {g['name']}: {format_value(g['value'], g['unit'])} "
-                                  f"(threshold {format_value(g['threshold'], g['unit'])})" for g in failed)))
-    out = [Section(None, head, order=0)]
+    out = head_sections(metrics, records)
     if metrics["replays"]:
         out.append(Section(None, [
             Text("Meshcat replays of the worst learned cases (self-contained, open from disk; overlays: truth cyan, "
@@ -109,9 +108,14 @@ def sections(metrics: dict, records: list[dict]) -> list[Section]:
                           for k, v in metrics["replays"].items()))], order=6))
     for name, kind in registry().items():
         out += kind.sections(ok_records(records, name))
-    out.append(Section("All gates", [table(["gate", "passed", "value", "threshold", "what"], [
-        (g["name"], "yes" if g["passed"] else "NO", format_value(g["value"], g["unit"]),
-         format_value(g["threshold"], g["unit"]), g["description"]) for g in gates])], order=90, brief=False))
+    ordered = sorted(gates, key=lambda g: 0 if not g["passed"] else 1 if is_known_limit(g) else 2)
+    out.append(Section("All gates", [
+        Text("Failures first, then the pinned known limits (the threshold is the band the figure is pinned to), then "
+             "the gates that pass within their own bound."),
+        table(["gate", "passed", "value", "threshold", "what"], [
+            (g["name"], ("yes (known limit)" if is_known_limit(g) else "yes") if g["passed"] else "NO",
+             shown(g["value"], g["unit"]), shown(g["threshold"], g["unit"]), g["description"]) for g in ordered])],
+        order=90, brief=False))
     env = metrics["environment"]
     out.append(Section(None, [Text(f"{metrics['created']}; Drake {env['drake']}, MuJoCo {env.get('mujoco', 'unknown')}, "
                                    f"Python {env['python']}, {env['cpus']} "

@@ -61,3 +61,8 @@ class CaseKind:
     def sections(self, records: list[dict]) -> list:
         """Report sections (testbed.document.Section) from this kind's "ok" records."""
         return []
+
+    def quick(self, records: list[dict]) -> str | None:
+        """What of this kind ran in quick mode (a reduced study), as a phrase for the
+        verdict line, or None."""
+        return None

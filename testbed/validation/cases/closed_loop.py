@@ -248,7 +248,7 @@ class ClosedLoopCase(CaseKind):
                  "predictor (testbed/compare/costs.py)."),
             table(["scene", "predictor", "ran to [s]", "diverged", "final pos err [mm]", "final angle err [deg]",
                    "max penetration [mm]", "energy created [J] (limit)", "drift [mm/min]", "leaves truth by 2 cm at [s]",
-                   "learned wall / sim s [s]", "x vs hydroelastic", "x vs point", "final tilt [deg] (truth's)"], rows),
+                   "learned wall / sim s [ms]", "x vs hydroelastic", "x vs point", "final tilt [deg] (truth's)"], rows),
             Bullets(tuple(verdict(r["result"]) for r in records)),
             *_discrimination(records),
         ], order=15)]
@@ -286,7 +286,7 @@ def _pinned(gate: Gate, prefix: str, known) -> Gate:
     ok = gate.value is not None and band[0] <= gate.value <= band[1]
     return Gate(f"{gate.name} (known limit)", ok, gate.value, band, gate.unit,
                 f"{gate.description}; known limit above the {gate.threshold} {gate.unit} bound, pinned at {pinned}: "
-                f"{why}. Fails if the figure leaves the band.")
+                f"{why}. Fails if the figure leaves the band.", bound=gate.threshold)
 
 
 def _le(value, limit) -> bool:
@@ -305,7 +305,7 @@ def _row(s: dict, name: str, f: dict) -> tuple:
             _num(f["max_penetration_m"], 1e3), f"{_num(f['energy_gain_gated_J'])} ({_num(s['energy_limit_J'])})",
             _drift(s, f),
             _num(f["leaves_truth_at_s"], fmt="g") if f["leaves_truth_at_s"] is not None else "never",
-            _num(f["wall_per_sim_s_learned"]), _num(f["speedup_vs_truth"], fmt=".2f"),
+            _num(f["wall_per_sim_s_learned"], 1e3), _num(f["speedup_vs_truth"], fmt=".2f"),
             _num(f["speedup_vs_point"], fmt=".2f"),
             f"{_num(f.get('final_tilt_max_deg'))} ({_num(f.get('final_tilt_max_truth_deg'))})")
 

@@ -7,10 +7,10 @@ reported in a section of their own beside the shipped predictor's figures, not g
 from __future__ import annotations
 
 from learned_contact import sources
-from learned_contact.gates import evaluate_gates
+from learned_contact.gates import KNOWN_LIMITS, evaluate_gates
 from testbed.document import Section, Text, table
 from testbed.validation.cases import Case, CaseKind, register
-from testbed.validation.gates import Gate
+from testbed.validation.gates import KNOWN_LIMIT, Gate
 
 
 @register
@@ -35,7 +35,7 @@ class LearnedGatesCase(CaseKind):
         if record["result"].get("predictor") is not None:
             return []  # an added predictor: reported (sections), not gated
         return [Gate(f"learned: {g['name']}", g["passed"], g["value"], g["threshold"], g.get("unit", ""),
-                     g.get("description", "")) for g in record["result"].get("gates", [])]
+                     g.get("description", ""), bound=_bound(g["name"])) for g in record["result"].get("gates", [])]
 
     def sections(self, records: list[dict]) -> list:
         shipped = [r for r in records if r["result"].get("predictor") is None]
@@ -58,3 +58,11 @@ class LearnedGatesCase(CaseKind):
                  "same thresholds (learned_contact/gates.py); only the shipped predictor's verdicts count toward the "
                  "run's verdict."),
             table(["gate", *[c[0] for c in columns], "threshold"], rows)], order=52)]
+
+
+def _bound(name: str):
+    """The target a pinned known limit of learned_contact.gates does not reach (None: not one)."""
+    if not name.endswith(KNOWN_LIMIT):
+        return None
+    known = KNOWN_LIMITS.get(name[:-len(KNOWN_LIMIT)].strip())
+    return None if known is None else known[0]

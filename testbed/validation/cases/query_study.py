@@ -33,6 +33,13 @@ class QueryStudyCase(CaseKind):
             return {"metrics": run_query_study(Path(tmp), quick=quick, seed=seed, progress=False,
                                                extra_predictors=tuple(predictors))}
 
+    def quick(self, records: list[dict]) -> str | None:
+        quick = [r for r in records if r["params"].get("quick")]
+        if not quick:
+            return None
+        config = quick[0]["result"]["metrics"]["config"]
+        return f"the query study ({config['n_poses']} poses per set, {config['repeats']} timed repeats; --suite full for the full study)"
+
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
             return []

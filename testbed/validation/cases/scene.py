@@ -143,7 +143,7 @@ class SceneCase(CaseKind):
         return [Gate(f"{cid}: learned point error in scene (known limit)", better * pinned <= median <= worse * pinned,
                      median, [better * pinned, worse * pinned], "m",
                      f"known limit, pinned at {pinned * 100:.1f} cm (above the {IN_SCENE_POINT_MEDIAN_M * 100:g} cm "
-                     f"bound): {reason}; the gate fails if the figure leaves the band")]
+                     f"bound): {reason}; the gate fails if the figure leaves the band", bound=IN_SCENE_POINT_MEDIAN_M)]
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
@@ -153,20 +153,23 @@ class SceneCase(CaseKind):
         if worst:
             w = worst[0]["result"]
             out.append(Section(None, [Text(
-                f"Predictor worst case: {worst[0]['id']}, point error {w['learned_vs_hydro_point_error_max_m'] * 100:.1f} cm "
+                f"Predictor worst case: {worst[0]['id']}, point error {w['learned_vs_hydro_point_error_max_m'] * 1e3:.0f} mm "
                 f"at step {w.get('learned_vs_hydro_point_error_worst_step')}.")], order=5))
         nan = float("nan")
         rows = [(r["id"], f"{s['real_time_factor']:.2f}", f"{s['max_penetration_m'] * 1e3:.2f}",
-                 f"{s.get('shadow_cop_distance_max_m', nan) * 100:.1f}",
-                 f"{s.get('learned_vs_hydro_point_error_median_m', nan) * 100:.1f}",
-                 f"{s.get('learned_vs_hydro_point_error_p95_m', nan) * 100:.1f}",
-                 f"{s.get('learned_vs_hydro_point_error_max_m', nan) * 100:.1f}",
+                 f"{s.get('shadow_cop_distance_max_m', nan) * 1e3:.0f}",
+                 f"{s.get('learned_vs_hydro_point_error_median_m', nan) * 1e3:.1f}",
+                 f"{s.get('learned_vs_hydro_point_error_p95_m', nan) * 1e3:.1f}",
+                 f"{s.get('learned_vs_hydro_point_error_max_m', nan) * 1e3:.1f}",
                  f"{s.get('learned_vs_hydro_normal_error_max_deg', nan):.2f}")
                 for r in records for s in [r["result"]]]
         out.append(Section("Scenes", [
             Text("Learned errors are against the hydroelastic centre of pressure and normal the predictor is trained "
-                 "for (the driving model's, or the shadow's when a scene drives with point contact)."),
-            table(["case", "real-time factor", "max penetration [mm]", "shadow CoP disagreement max [cm]",
-                   "learned point error median [cm]", "p95 [cm]", "max [cm]", "learned normal error max [deg]"], rows),
+                 "for (the driving model's, or the shadow's when a scene drives with point contact). Real-time factor = "
+                 "simulated time / wall time (> 1: faster than real time). Shadow CoP disagreement: the distance between "
+                 "the driving model's contact point and the shadow model's (point contact reports a corner of the "
+                 "contact face for face-on-face contact, so metres on a stack)."),
+            table(["case", "real-time factor", "max penetration [mm]", "shadow CoP disagreement max [mm]",
+                   "learned point error median [mm]", "p95 [mm]", "max [mm]", "learned normal error max [deg]"], rows),
         ], order=60))
         return out

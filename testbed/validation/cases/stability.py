@@ -28,6 +28,11 @@ class StabilityCase(CaseKind):
     def run(self, entries) -> dict:
         return {"rows": [run_matrix_entry(name, kw) for name, kw in entries]}
 
+    def quick(self, records: list[dict]) -> str | None:
+        ran = sum(len(r["params"]["entries"]) for r in records)
+        full = len(matrix_cases(quick=False))
+        return f"the stability matrix ({ran} of the full matrix's {full} entries)" if records and ran < full else None
+
     def sections(self, records: list[dict]) -> list[Section]:
         rows = [row for r in records for row in r["result"]["rows"]]
         if not rows:

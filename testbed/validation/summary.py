@@ -1,0 +1,223 @@
+"""The report's first screen: the verdict with passes and pinned known limits counted apart,
+the limits with their figure and bound, and one row per candidate against Drake.
+
+Candidates are what the suite's records measured: the learned predictors (closed-loop and
+scene records, the query study's learned methods), Drake point contact (its closed-loop timing,
+its scene runs against the hydroelastic shadow, the query study) and MuJoCo per contact
+parameter set (the engine records, the query study's mj_collision). Nothing here runs a case.
+Units: lengths in mm, angles in deg, time per query in us, speed as a ratio of wall times.
+"""
+
+from __future__ import annotations
+
+import math
+
+from learned_contact import sources
+from testbed.document import Bullets, Section, Text, Verdict, table
+from testbed.validation.cases import ok_records, registry
+from testbed.validation.cases.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, GATED, MAX_PENETRATION_M, ClosedLoopCase
+from testbed.validation.gates import is_known_limit, shown
+
+POINT = "Drake point contact"
+REFERENCE = "Drake hydroelastic (the reference)"
+UNITS = ("Units in every table: positions, distances and penetrations in mm, angles in deg, time per query in us, "
+         "wall time per simulated second in ms; speed = Drake hydroelastic's wall time / the candidate's (> 1: faster).")
+
+
+def gate_counts(gates: list[dict]) -> dict:
+    """{'passed': gates that pass within their own bound, 'known_limits': gates that pass only
+    within a pinned known limit's band, 'failed': the rest} (gates as metrics.json holds them)."""
+    pinned = sum(1 for g in gates if g["passed"] and is_known_limit(g))
+    failed = sum(1 for g in gates if not g["passed"])
+    return {"passed": len(gates) - pinned - failed, "known_limits": pinned, "failed": failed}
+
+
+def headline(gates: list[dict], quick: list[str]) -> str:
+    """'120 gates pass, 8 hold only within pinned known limits (listed below).' and the
+    quick-mode studies."""
+    c = gate_counts(gates)
+    text = (f"{c['failed']} of {len(gates)} gates fail; " if c["failed"] else "") + \
+        f"{c['passed']} gates pass, {c['known_limits']} hold only within pinned known limits" + \
+        (" (listed below)." if c["known_limits"] else ".")
+    if quick:
+        text += " Quick mode: " + "; ".join(quick) + "."
+    return text
+
+
+def limit_line(g: dict) -> str:
+    """One pinned known limit: its figure, the bound it does not meet, the band it is pinned to."""
+    bound = f" against the {shown(g['bound'], g['unit'])} bound" if g.get("bound") is not None else ""
+    return f"{g['name']}: {shown(g['value'], g['unit'])}{bound} (pinned band {shown(g['threshold'], g['unit'])})"
+
+
+def failed_line(g: dict) -> str:
+    return f"FAILED {g['name']}: {shown(g['value'], g['unit'])} (threshold {shown(g['threshold'], g['unit'])})"
+
+
+def head_sections(metrics: dict, records: list[dict]) -> list[Section]:
+    """The verdict, the failed gates, the known limits (order 0) and the candidates (order 1)."""
+    gates = metrics["gates"]
+    kinds = registry()
+    quick = [q for name, kind in kinds.items() if (q := kind.quick(ok_records(records, name)))]
+    blocks = [Verdict(metrics["passed"], headline(gates, quick))]
+    failed = [g for g in gates if not g["passed"]]
+    if failed:
+        blocks.append(Bullets(tuple(failed_line(g) for g in failed)))
+    limits = [g for g in gates if g["passed"] and is_known_limit(g)]
+    if limits:
+        blocks += [Text("Known limits (the gate holds while the figure stays in its pinned band; it is outside the "
+                        "gate's own bound):"), Bullets(tuple(limit_line(g) for g in limits))]
+    out = [Section(None, blocks, order=0)]
+    rows = candidate_rows(records)
+    if rows:
+        out.append(Section("Summary: each candidate against Drake", [
+            table(["candidate", "contact point vs Drake's centre of pressure, median [mm]: posed pairs / in scenes",
+                   "closed loop vs Drake hydroelastic", "speed vs Drake hydroelastic [x]",
+                   "cost per query [us]: one pair / batched"], rows),
+            Text("Posed pairs: the query study's pose sets against Drake hydroelastic's centre of pressure; in "
+                 "scenes: the range over scenes of the median per scene (Drake point contact reports a corner of the "
+                 "contact face for face-on-face contact, metres from the centre of pressure of a stack). Speeds: the predictors and Drake point "
+                 "contact from the closed-loop runs (containers at the learned law's modulus), MuJoCo from the engine "
+                 "runs (the scene's own modulus), each measured side by side with Drake hydroelastic in one process. "
+                 "- : not measured in this suite. " + UNITS)], order=1))
+    return out
+
+
+def candidate_rows(records: list[dict]) -> list[tuple]:
+    """One row per candidate the records measured: the predictors, Drake point contact,
+    MuJoCo per parameter set, then the reference (Drake hydroelastic)."""
+    closed = [r["result"] for r in ok_records(records, "closed_loop")]
+    scenes = [r["result"] for r in ok_records(records, "scene")]
+    engine = [r["result"] for r in ok_records(records, "engine") if r["result"].get("available")]
+    query = [r["result"]["metrics"]["methods"] for r in ok_records(records, "query_study")]
+    methods = query[0] if query else {}
+    names = list(dict.fromkeys([n for s in closed for n in s["predictors"]]
+                               + [_predictor_of(m) for m in methods if _predictor_of(m)]
+                               + ([sources.DEFAULT] if any(_in_scene(s) is not None for s in scenes) else [])))
+    rows = [_predictor_row(n, closed, scenes, methods) for n in names]
+    point_scenes = [d for s in scenes if (d := _point_disagreement(s)) is not None]
+    point_speed = [s["predictors"][n]["wall_per_sim_s_truth"] / s["predictors"][n]["wall_per_sim_s_point"]
+                   for s in closed for n in list(s["predictors"])[:1]
+                   if _positive(s["predictors"][n].get("wall_per_sim_s_point"))]
+    if point_scenes or point_speed or "drake_point" in methods:
+        rows.append((POINT, f"{_median_mm(methods.get('drake_point'))} / {_span(point_scenes, 1e3)}",
+                     "timed only (its trajectory is not compared)", _span(point_speed, fmt=".2g"),
+                     _cost(methods.get("drake_point"))))
+    for params in dict.fromkeys(p for s in engine for p in s["mujoco"]):
+        runs = [(s["scene"], s["mujoco"][params]) for s in engine if params in s["mujoco"]]
+        within = [scene for scene, f in runs if _within_bounds(f)]
+        rows.append((f"MuJoCo ({params} parameters)",
+                     f"{_median_mm(methods.get('mujoco'))} / "
+                     f"{_span([f['contact_point_error_median_m'] for _, f in runs], 1e3)}",
+                     f"within the closed-loop bounds on {len(within)} of {len(runs)} scenes (not gated)",
+                     _span([f["speedup_vs_hydroelastic"] for _, f in runs], fmt=".2g"), _cost(methods.get("mujoco"))))
+    if rows and "drake_hydro_cc" in methods:
+        rows.append((REFERENCE, "0 / 0", "the ground truth", "1", _cost(methods["drake_hydro_cc"])))
+    return rows
+
+
+def _predictor_of(method: str) -> str | None:
+    """The predictor a query-study learned method times ('improved_single' -> 'improved',
+    'paper_mlp_batched' -> 'paper', 'bench_mine_single' -> 'mine'), or None."""
+    for suffix in ("_single", "_batched"):
+        if method.endswith(suffix):
+            stem = method[: -len(suffix)]
+            if stem.startswith("bench_"):
+                return stem[len("bench_"):]
+            return {"improved": "improved", "paper_mlp": "paper"}.get(stem)
+    return None
+
+
+def _method_prefix(name: str) -> str:
+    return {"improved": "improved", "paper": "paper_mlp"}.get(name, f"bench_{sources.label(name)}")
+
+
+def _in_scene(s: dict):
+    """The shipped predictor's in-scene point error median [m] of a scene record, or None."""
+    return s.get("learned_vs_hydro_point_error_median_m")
+
+
+def _predictor_row(name: str, closed: list[dict], scenes: list[dict], methods: dict) -> tuple:
+    label = sources.label(name)
+    shown_name = label + (" (gated)" if name == GATED else " (reported, not gated)")
+    prefix = _method_prefix(name)
+    in_scene = [v for s in scenes if (v := _in_scene(s)) is not None] if name == sources.DEFAULT else []
+    runs = [(s, s["predictors"][name]) for s in closed if name in s["predictors"]]
+    speed = [f["speedup_vs_truth"] for _, f in runs if not f["diverged"] and _positive(f.get("speedup_vs_truth"))]
+    single, batched = methods.get(f"{prefix}_single"), methods.get(f"{prefix}_batched")
+    return (shown_name, f"{_median_mm(single or batched)} / {_span(in_scene, 1e3)}", _closed_verdict(runs),
+            _span(speed, fmt=".2g") + (" (runs that did not diverge)" if speed and len(speed) < len(runs) else ""),
+            f"{_time(single)} / {_time(batched)}")
+
+
+def _closed_verdict(runs) -> str:
+    """'holds 11 of 12 scenes within the gates, 1 only within pinned known limits; diverges on 0'."""
+    if not runs:
+        return "-"
+    held = pinned = diverged = 0
+    for s, f in runs:
+        gates = ClosedLoopCase().gates({"id": "", "result": {**s, "predictors": {GATED: f}}})
+        diverged += bool(f["diverged"])
+        if gates and all(g.passed for g in gates):
+            if any(is_known_limit(g.to_dict()) for g in gates):
+                pinned += 1
+            else:
+                held += 1
+    text = f"within the gates on {held} of {len(runs)} scenes"
+    if pinned:
+        text += f", {pinned} more only within pinned known limits"
+    return text + f"; diverges on {diverged}"
+
+
+def _within_bounds(f: dict) -> bool:
+    """A MuJoCo run within the closed-loop gates' bounds: final position and angle, penetration."""
+    figures = (f.get("final_position_error_max_m"), f.get("final_angle_error_max_deg"), f.get("max_penetration_m"))
+    bounds = (FINAL_POSITION_TOL_M, FINAL_ANGLE_TOL_DEG, MAX_PENETRATION_M)
+    return not f.get("diverged") and all(_finite(v) and v <= b for v, b in zip(figures, bounds))
+
+
+def _point_disagreement(s: dict):
+    """Median distance [m] between Drake point contact's and hydroelastic's contact point in a
+    scene run (one model driving, the other as its shadow), or None."""
+    models = {s.get("contact_model"), s.get("shadow_model")}
+    return s.get("shadow_cop_distance_median_m") if models == {"point", "hydroelastic"} else None
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _positive(v) -> bool:
+    return _finite(v) and v > 0
+
+
+def _span(values, scale: float = 1.0, fmt: str = ".3g") -> str:
+    """'low-high' (or one value) of the finite values times scale; '-' when there are none."""
+    values = [v * scale for v in values if _finite(v)]
+    if not values:
+        return "-"
+    low, high = _number(min(values), fmt), _number(max(values), fmt)
+    return low if low == high else f"{low}-{high}"
+
+
+def _number(value: float, fmt: str) -> str:
+    """value in `fmt`, but whole digits (no exponent) from the digits `fmt` keeps up: 1430, 150."""
+    digits = int(fmt.strip(".g") or 6)
+    return f"{value:.0f}" if abs(value) >= 10 ** (digits - 1) else format(value, fmt)
+
+
+def _median_mm(method) -> str:
+    if not method or not method.get("available", True):
+        return "-"
+    return _span([method["all"]["point_error_m"]["median"]], 1e3)
+
+
+def _time(method) -> str:
+    if not method or not method.get("available", True):
+        return "-"
+    return _span([method["all"]["time_us"]["median"]])
+
+
+def _cost(method) -> str:
+    """A method with one way of calling: its median time per query [us] (no batched form)."""
+    return f"{_time(method)} / -"
