@@ -14,7 +14,7 @@ TITLE = "Query study: what accuracy costs in time"
 
 
 def chart_png(metrics: dict) -> bytes:
-    """Pareto chart: mean query time [us] (log) against mean point error [m] and mean
+    """Pareto chart: mean query time [us] (log) against mean point error [mm] and mean
     normal error [deg] (log), one marker per method, the polygon-soup N sweep joined;
     PNG bytes."""
     import matplotlib
@@ -25,10 +25,11 @@ def chart_png(metrics: dict) -> bytes:
     methods = {k: v for k, v in metrics["methods"].items() if v["available"] and "all" in v}
     fig, axes = plt.subplots(1, 2, figsize=(13, 5.5))
     colours = {"drake": "tab:blue", "polygon_soup": "tab:orange", "mujoco": "tab:green", "learned": "tab:red"}
-    floor = {"point_error_m": 1e-5, "normal_error_deg": 1e-4}
-    for ax, key, ylabel, front_key in ((axes[0], "point_error_m", "mean contact-point error [m]", "point_front"),
+    floor = {"point_error_m": 1e-2, "normal_error_deg": 1e-4}  # in the plotted units (mm, deg)
+    scale = {"point_error_m": 1e3, "normal_error_deg": 1.0}  # m -> mm
+    for ax, key, ylabel, front_key in ((axes[0], "point_error_m", "mean contact-point error [mm]", "point_front"),
                                        (axes[1], "normal_error_deg", "mean normal error [deg]", "normal_front")):
-        soup = sorted((v["N"], v["all"]["time_us"]["mean"], v["all"][key]["mean"]) for k, v in methods.items()
+        soup = sorted((v["N"], v["all"]["time_us"]["mean"], v["all"][key]["mean"] * scale[key]) for k, v in methods.items()
                       if k.startswith("soup_N") and v["all"][key]["mean"] is not None)
         if soup:
             ax.plot([s[1] for s in soup], [max(s[2], floor[key]) for s in soup], "-", color=colours["polygon_soup"],
@@ -37,6 +38,7 @@ def chart_png(metrics: dict) -> bytes:
             t, e = v["all"]["time_us"]["mean"], v["all"][key]["mean"]
             if t is None or e is None:
                 continue
+            e = e * scale[key]
             on_front = name in metrics["pareto"][front_key]
             is_ref = name == "drake_hydro_cc"
             ax.scatter([t], [max(e, floor[key])], color=colours.get(v["family"], "k"),
@@ -69,6 +71,11 @@ def _f(x, fmt="{:.3g}") -> str:
     return "-" if x is None else fmt.format(x)
 
 
+def _mm(x_m) -> str:
+    """A length in metres written in mm (the report's unit for lengths)."""
+    return "-" if x_m is None else _f(x_m * 1e3)
+
+
 def markdown(metrics: dict, chart: bytes = b"") -> str:
     """query.md: the study's sections as Markdown (the chart linked as CHART_FILE)."""
     return to_markdown(TITLE, sections(metrics, chart))
@@ -89,12 +96,12 @@ def sections(metrics: dict, chart: bytes = b"", *, level: int = 2, order: int = 
         Text("Times are per query in microseconds, measured side by side in one process (compare ratios, not absolute "
              "values). *query* = pose in, point and normal out (Python included); *kernel* = the library's collision "
              "call alone. Batched methods: one call per pose set, its time divided by the set's size (p99/max over "
-             "repeats); their throughput at larger batches is listed under the tables. Errors: contact point [m] and "
+             "repeats); their throughput at larger batches is listed under the tables. Errors: contact point [mm] and "
              "normal [deg] against the reference."),
     ]
     out = [Section(None, setup, order, level)]
     out.append(Section("Methods (all pose sets)", _methods_blocks(metrics, chart, chart_file), order + 1, level))
-    out.append(Section("Errors by pose set (mean point error [m] / mean normal error [deg] / mean query time [us])",
+    out.append(Section("Errors by pose set (mean point error [mm] / mean normal error [deg] / mean query time [us])",
                        [_by_set_table(metrics)], order + 2, level))
     tilt = metrics.get("near_parallel_by_tilt") or {}
     if tilt:
@@ -102,12 +109,12 @@ def sections(metrics: dict, chart: bytes = b"", *, level: int = 2, order: int = 
         for name, per_decade in tilt["methods"].items():
             cells = []
             for r in per_decade:
-                cell = _f(r["point_error_m"])
+                cell = _mm(r["point_error_m"])
                 if name.startswith("soup") and r["count_max"] is not None:
                     cell += f" ({r['count_max']})"
                 cells.append(cell)
             rows.append([name, *cells])
-        out.append(Section("Near-parallel worst case by tilt (mean point error [m]; soup: max colliding pairs)",
+        out.append(Section("Near-parallel worst case by tilt (mean point error [mm]; soup: max colliding pairs)",
                            [table(["method", *tilt["decades"]], rows)], order + 3, level))
     out.append(Section("The paper's Tables 3 and 4 on today's tools", _paper_blocks(metrics), order + 4, level))
     return out
@@ -121,10 +128,10 @@ def _methods_blocks(metrics: dict, chart: bytes, chart_file: str) -> list:
             continue
         a = v["all"]
         t, k, p, nr = a["time_us"], a.get("kernel_time_us"), a["point_error_m"], a["normal_error_deg"]
-        rows.append([name, _f(t["mean"]), _f(t["p99"]), _f(t["max"]), _f(k["mean"]) if k else "-", _f(p["mean"]),
-                     _f(p["median"]), _f(p["p99"]), _f(p["max"]), _f(nr["mean"]), _f(nr["p99"]), _f(nr["max"]),
+        rows.append([name, _f(t["mean"]), _f(t["p99"]), _f(t["max"]), _f(k["mean"]) if k else "-", _mm(p["mean"]),
+                     _mm(p["median"]), _mm(p["p99"]), _mm(p["max"]), _f(nr["mean"]), _f(nr["p99"]), _f(nr["max"]),
                      p["n_missing"]])
-    blocks = [table(["method", "query mean", "p99", "max", "kernel mean", "point err mean [m]", "median", "p99", "max",
+    blocks = [table(["method", "query mean", "p99", "max", "kernel mean", "point err mean [mm]", "median", "p99", "max",
                      "normal err mean [deg]", "p99", "max", "missing"], rows),
               Text(f"Pareto front (mean time vs mean point error): {', '.join(metrics['pareto']['point_front'])}."),
               Text(f"Pareto front (mean time vs mean normal error): {', '.join(metrics['pareto']['normal_front'])}.")]
@@ -141,7 +148,7 @@ def _by_set_table(metrics: dict):
         cells = []
         for s in metrics["pose_sets"]:
             b = v["by_set"].get(s)
-            cells.append("-" if b is None else f"{_f(b['point_error_m']['mean'])} / {_f(b['normal_error_deg']['mean'])}"
+            cells.append("-" if b is None else f"{_mm(b['point_error_m']['mean'])} / {_f(b['normal_error_deg']['mean'])}"
                          f" / {_f(b['time_us']['mean'])}")
         rows.append([name, *cells])
     return table(["method", *metrics["pose_sets"]], rows)
