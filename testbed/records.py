@@ -10,7 +10,11 @@ A run directory holds:
   summary.json    headline figures
 
 Read a table with `np.load(path)` (arrays keyed by column) or `load_table`; turn it
-into a pandas DataFrame with `to_frame` (vector columns become `name_0..name_k`).
+(or its path) into a pandas DataFrame with `to_frame` (vector columns become `name_0..name_k`).
+Body indices: contacts' `a`, `b` index summary.json's `body_names` (the ground first, then
+the containers in the scene's order); steps' second axis indexes the free (not welded)
+containers in the scene's order, so on a scene without welded boxes steps' index j is
+body_names[j + 1].
 """
 
 from __future__ import annotations
@@ -85,10 +89,15 @@ def load_table(path: str | Path) -> dict[str, np.ndarray]:
         return {k: data[k] for k in data.files}
 
 
-def to_frame(table: dict[str, np.ndarray]):
-    """A pandas DataFrame with vector columns split into name_0, name_1, ... (needs pandas)."""
+def to_frame(table: dict[str, np.ndarray] | str | Path):
+    """A pandas DataFrame of a table (a dict of columns, or the path of a table's .npz file,
+    e.g. a run's contacts.npz) with vector columns split into name_0, name_1, ... in C order
+    (steps.npz's p_WB (n, m, 3): p_WB_0..2 = container 0's x, y, z, p_WB_3..5 container 1's).
+    Needs pandas (`pip install -e '.[frames]'`)."""
     import pandas as pd  # optional; only this helper needs it
 
+    if isinstance(table, (str, os.PathLike)):
+        table = load_table(table)
     flat = {}
     for key, value in table.items():
         if value.ndim == 1:

@@ -119,3 +119,35 @@ def test_energy_is_not_created_in_a_drop():
     drop_energy = mass * 9.81 * 0.3
     assert np.max(energy[first:]) <= energy[first] + 1e-3 * drop_energy
     assert energy[-1] < energy[0] - 0.9 * drop_energy  # the landing dissipated it
+
+
+def test_to_frame_reads_a_table_file_and_the_body_indices_are_as_documented(two_stack):
+    """to_frame takes a table's path (it used to fail with AttributeError); steps' container j
+    is body_names[j + 1] in contacts (two_stack has no welded box), checked on the poses."""
+    pytest.importorskip("pandas", reason="to_frame needs pandas: pip install -e '.[frames]'")
+    from testbed.records import to_frame
+
+    _, out = two_stack
+    contacts = to_frame(out / "contacts.npz")
+    steps = to_frame(str(out / "steps.npz"))
+    assert len(contacts) == len(load_table(out / "contacts.npz")["a"]) and {"p_WB_0", "p_WB_2", "static_age"} <= set(contacts)
+    assert list(steps.columns[:2]) == ["step", "time"] and "p_WB_5" in steps and "p_WB_6" not in steps  # (n, 2, 3)
+    pair = contacts[(contacts.a == 1) & (contacts.b == 2)].iloc[-1]  # bottom (a) under top (b)
+    row = steps[steps.step == pair.step].iloc[0]
+    # contacts record the poses of the same state: exact equality, not a tolerance
+    assert [row[f"p_WB_{i}"] for i in range(3)] == [pair[f"p_WA_{i}"] for i in range(3)]  # container 0 = bottom
+    assert [row[f"p_WB_{3 + i}"] for i in range(3)] == [pair[f"p_WB_{i}"] for i in range(3)]  # container 1 = top
+
+
+def test_run_prints_the_disagreement_in_mm_with_its_reason(two_stack):
+    """`testbed run`'s lines: the shadow disagreement in mm (the unit of compare and the
+    report), why point contact's reads metres, and what the real-time factor is."""
+    from testbed.commands.run import format_summary
+
+    result, _ = two_stack
+    s = result.summary
+    text = format_summary(s)
+    assert s["shadow_model"] == "point" and s["shadow_cop_distance_max_m"] > 1.0  # a corner, metres away (measured 3.3 m)
+    assert f"disagreement {s['shadow_cop_distance_max_m'] * 1e3:.1f} mm at step" in text
+    assert "a corner of the contact face for face-on-face contact" in text
+    assert "real-time factor" in text and "simulated time / wall time" in text

@@ -46,7 +46,8 @@ def format_summary(summary: dict) -> str:
     """A run summary (RunResult.summary) as the few lines `testbed run` prints."""
     lines = [
         f"scene {summary['scene']}: {summary['steps']} steps of {summary['time_step_s'] * 1e3:g} ms, "
-        f"wall {summary['wall_time_s']:.2f} s, real-time factor {summary['real_time_factor']:.2f}",
+        f"wall {summary['wall_time_s']:.2f} s, real-time factor {summary['real_time_factor']:.2f} "
+        "(simulated time / wall time; > 1: faster than real time)",
         f"  contact model: {summary['contact_model']} ({summary['approximation']}); effects: {', '.join(summary['effects'])}",
     ]
     if "contact_rows" in summary:
@@ -59,9 +60,13 @@ def format_summary(summary: dict) -> str:
     if "shadow_cop_distance_max_m" in summary:
         lines.append(
             f"  shadow ({summary['shadow_model']}): worst centre-of-pressure disagreement "
-            f"{summary['shadow_cop_distance_max_m'] * 100:.1f} cm at step {summary['shadow_worst_step']}, "
+            f"{summary['shadow_cop_distance_max_m'] * 1e3:.1f} mm at step {summary['shadow_worst_step']}, "
             f"max normal angle {summary['shadow_normal_angle_max_deg']:.2f} deg"
         )
+        if "point" in (summary["shadow_model"], summary.get("contact_model")):
+            lines.append("    (point contact reports one point per pair, a corner of the contact face for face-on-face "
+                         "contact, hydroelastic the centre of pressure: for boxes resting face on face they lie metres apart, a "
+                         "difference in what each model reports, not an error)")
     if not summary.get("finite_state", True):
         lines.append("  WARNING: the final state is not finite (the simulation diverged)")
     return "\n".join(lines)
