@@ -12,7 +12,7 @@ KEYS = ("position_error_max_m", "final_position_error_max_m", "final_angle_error
         "departed")
 
 
-def test_compare_writes_figures_series_plot_and_replay(tmp_path, capsys):
+def test_compare_writes_figures_series_plot_and_replay(tmp_path, capsys, caplog):
     out = tmp_path / "cmp"
     assert main(["compare", "two_stack", "--duration", "0.1", "--out", str(out)]) == 0
     figures = json.loads((out / "compare.json").read_text())
@@ -23,8 +23,10 @@ def test_compare_writes_figures_series_plot_and_replay(tmp_path, capsys):
     series = np.load(out / "trajectories.npz")
     assert series["learned_p_WB"].shape == series["truth_p_WB"].shape == (11, 2, 3)  # 10 ms records, 2 boxes
     assert (out / "divergence.png").read_bytes()[:4] == b"\x89PNG"
-    assert "<html" in (out / "replay.html").read_text()[:2000].lower()
+    replay = (out / "replay.html").read_text()
+    assert "<html" in replay[:2000].lower() and "two_stack: the learned run against Drake" in replay  # its caption
     assert "learned" in capsys.readouterr().out
+    assert "Meshcat listening" not in caplog.text  # the replay's server URL is gone when compare exits: not printed
 
 
 @pytest.mark.parametrize("argv", [["compare", "no_such_scene"],

@@ -70,6 +70,7 @@ def test_recorded_run_offers_the_replay(tmp_path):
     effect = scene.effects["meshcat"]
     html = effect.files()["replay.html"]
     assert html.startswith("<!DOCTYPE html>") and "meshcat" in html.lower()
+    assert f"id='{viewer.CAPTION_ID}'" in html and "single_drop: hydroelastic_with_fallback contact" in html
     assert result.summary["replay_bytes"] == len(html.encode())
     path = viewer.write_replay(html, tmp_path / "run" / "replay.html")
     assert path.read_text() == html

@@ -218,6 +218,11 @@ def test_replay_file_animates_overlays(browser_page, recorded_run, tmp_path):
         assert page.evaluate(_WORLD_VISIBLE_JS, ["overlays", "truth", PAIR, "arrow", "c0"])
         z_truth = page.evaluate(f"() => viewer.scene_tree.find(['overlays', 'truth', '{PAIR}']).object.position.z")
         assert abs(z_truth) < 0.05  # the contact point lies on the quay (z = 0)
+        # the caption names the scene and the colours, and its clock follows the replay (read every 0.1 s)
+        caption = page.inner_text(f"#{viewer.CAPTION_ID}")
+        assert SCENE in caption and "cyan" in caption and "magenta" in caption
+        page.wait_for_function(f"() => document.getElementById('{viewer.TIME_ID}').textContent"
+                               f".startsWith('t = {DURATION - 0.05:.2f} s of')", timeout=5_000)
         _check_screenshot(page, tmp_path / "replay.png")
     finally:
         page.close()

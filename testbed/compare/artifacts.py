@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.viz.replay import finish_recording
+from testbed.viz.camera import set_camera_on
+from testbed.viz.replay import finish_recording, with_caption
 from testbed.viz.server import start_meshcat
 
 
@@ -49,12 +50,14 @@ def plot_divergence(path, truth, learned, scene: str, predictor: str, label: str
 
 def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02, label: str = "learned") -> None:
     """A self-contained Meshcat replay: the run under test's boxes solid (under /<label>/ in
-    the scene tree), the truth as translucent ghosts."""
+    the scene tree), the truth as translucent ghosts; the camera on the containers from a 3/4
+    view, a caption with the scene, which box is which and the simulated time. The Meshcat
+    server only records (its URL is not printed: it is gone when the command exits)."""
     from pydrake.common.eigen_geometry import Quaternion
     from pydrake.geometry import Box, Rgba
     from pydrake.math import RigidTransform
 
-    meshcat = start_meshcat(port=0)
+    meshcat = start_meshcat(port=0, quiet=True)
     specs = [c for c in scenario.containers if not c.fixed]
     fixed = [c for c in scenario.containers if c.fixed]
     for c in specs + fixed:
@@ -68,6 +71,7 @@ def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.0
     if scenario.ground:
         meshcat.SetObject("/quay", Box(60.0, 60.0, 0.2), Rgba(0.5, 0.5, 0.5, 1.0))
         meshcat.SetTransform("/quay", RigidTransform([0.0, 0.0, -0.1]))
+    set_camera_on(meshcat, scenario.containers)
     meshcat.StartRecording(frames_per_second=1.0 / frame_period, set_visualizations_while_recording=False)
     step = max(1, int(round(frame_period / max(truth.time[1] - truth.time[0], 1e-9)))) if len(truth.time) > 1 else 1
     for k in range(0, len(truth.time), step):
@@ -76,7 +80,9 @@ def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.0
             meshcat.SetTransform(f"/truth_ghost/{c.name}", _pose(Quaternion, RigidTransform, truth, k, i), t)
             if k < len(learned.time):
                 meshcat.SetTransform(f"/{label}/{c.name}", _pose(Quaternion, RigidTransform, learned, k, i), t)
-    html = finish_recording(meshcat)
+    html = with_caption(finish_recording(meshcat), f"{scenario.name}: the {label} run against Drake", (
+        f"solid boxes (container colours): the {label} run",
+        "light blue, translucent: Drake's run from the same initial state (the truth)"))
     with open(path, "w") as f:
         f.write(html)
 

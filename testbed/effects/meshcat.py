@@ -47,6 +47,15 @@ class MeshcatConfig:
     contact_forces: bool = True  # add Drake's ContactVisualizer
 
 
+# The replay's legend (testbed/viz/colours.py, testbed/viz/overlays.py)
+CAPTION_LEGEND = (
+    "boxes: the containers (translucent, so the contacts inside a stack show)",
+    "spheres: contact points of the driving model (cyan), the shadow model (magenta), the learned predictor (yellow)",
+    "segments between them and arrows: green = agreement ... red = the error threshold",
+    "orange arrows: point-contact forces; violet: hydroelastic forces, blue: their moments",
+)
+
+
 @register
 class MeshcatEffect(Effect):
     name = "meshcat"
@@ -61,6 +70,7 @@ class MeshcatEffect(Effect):
 
     meshcat = None
     replay_html: typing.Optional[str] = None
+    _caption_title = ""  # the replay caption's title, set when the scene is built
 
     def check(self, effects) -> None:
         super().check(effects)
@@ -112,13 +122,15 @@ class MeshcatEffect(Effect):
             )
             systems.append(make_overlay_system(assembly, meshcat, self.painter, period, recording=c.record))
         viz.set_camera_for(meshcat, assembly)
+        self._caption_title = (f"{assembly.scenario.name}: {assembly.plan.contact_model} contact"
+                               if assembly.plan.collision else assembly.scenario.name)
         if c.record:
             meshcat.StartRecording(frames_per_second=1.0 / period, set_visualizations_while_recording=True)
         return systems
 
     def collect(self, tables) -> None:
         if self.config.record and self.meshcat is not None:
-            self.replay_html = viz.finish_recording(self.meshcat)
+            self.replay_html = viz.with_caption(viz.finish_recording(self.meshcat), self._caption_title, CAPTION_LEGEND)
 
     def summarize(self, tables) -> dict:
         out = {"meshcat_url": self.meshcat.web_url() if self.meshcat is not None else None}

@@ -47,18 +47,28 @@ def exposure_warning(host: str) -> str | None:
             f"Use the default --host localhost unless you trust the network.")
 
 
-def start_meshcat(host: str = "localhost", port: int | None = DEFAULT_PORT):
+def start_meshcat(host: str = "localhost", port: int | None = DEFAULT_PORT, *, quiet: bool = False):
     """Starts a Meshcat server. port None or 0 = any free port (0: the system's choice).
+    quiet: Drake does not log its "Meshcat listening for connections at URL" line (for a
+    server that only records a replay file: its URL is gone when the command exits).
 
     Raises MeshcatPortError (a TestbedError) naming the port when it cannot listen.
     """
+    import logging
+
     from pydrake.geometry import Meshcat, MeshcatParams
 
     params = MeshcatParams(host=host, port=port if port else 0, show_stats_plot=False)
+    drake_log = logging.getLogger("drake")  # pydrake forwards Drake's log here
+    level = drake_log.level
+    if quiet:
+        drake_log.setLevel(max(level, logging.WARNING))
     try:
         return Meshcat(params)
     except RuntimeError as e:
         raise MeshcatPortError(host, port, str(e).strip().splitlines()[0]) from None
+    finally:
+        drake_log.setLevel(level)
 
 
 def listening_addresses(port: int) -> list[str]:
