@@ -24,38 +24,7 @@ from __future__ import annotations
 import numpy as np
 from bench_models import GeometricModel
 
-
-class Biased:
-    """The improved predictor with every point moved `bias_m` [m] along A's +x."""
-
-    def __init__(self, bias_m: float):
-        from learned_contact import load_predictor
-
-        self._pred = load_predictor("improved")
-        self.supported_sizes = self._pred.supported_sizes
-        self.bias_m = float(bias_m)
-        self.name = f"improved, points {bias_m * 100:+g} cm along A's x"
-
-    def predict(self, p_AB, R_AB, *, size_A, size_B):
-        point, normal = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
-        return np.asarray(point) + np.array([self.bias_m, 0.0, 0.0]), normal
-
-
-class TiltedNormal:
-    """The improved predictor with every normal rotated `deg` about A's y (A's z toward A's +x)."""
-
-    def __init__(self, deg: float):
-        from learned_contact import load_predictor
-
-        self._pred = load_predictor("improved")
-        self.supported_sizes = self._pred.supported_sizes
-        a = np.radians(deg)
-        self._R = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
-        self.name = f"improved, normals tilted {deg:g} deg"
-
-    def predict(self, p_AB, R_AB, *, size_A, size_B):
-        point, normal = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
-        return point, np.asarray(normal) @ self._R.T
+from testbed.validation.sensitivity import Biased, TiltedNormal
 
 
 class Prior(GeometricModel):

@@ -84,3 +84,18 @@ def test_every_alternative_fails_the_closed_loop(verdicts, name):
     scene, expected = EXPECTED[name]
     failed, f = verdicts[scene][name]
     assert expected <= failed, (name, scene, failed, f["final_position_error_max_m"], f["final_angle_error_max_deg"])
+
+
+def test_the_default_suite_runs_the_sensitivity_check_and_reports_what_each_scene_tells():
+    """Every default closed-loop case runs the 5 cm-biased predictor beside the shipped ones
+    (not gated); the section splits the scenes by whether it passes them, on the data."""
+    from testbed.validation.cases.closed_loop import ClosedLoopCase, sensitivity_split
+    from testbed.validation.sensitivity import SENSITIVITY_CHECK
+
+    kind = ClosedLoopCase()
+    cases = kind.cases("default")
+    assert cases and all(c.params["predictors"][-1] == SENSITIVITY_CHECK for c in cases)
+    record = {"id": "closed-overhang_tip", "result": kind.run("overhang_tip", 0.9, ["improved", SENSITIVITY_CHECK])}
+    gated = kind.gates(record)
+    assert gated and all(g.passed for g in gated)  # the shipped predictor's gates only
+    assert sensitivity_split([record]) == ([], ["overhang_tip"])  # the 5 cm bias fails this scene

@@ -17,6 +17,7 @@ from testbed.document import Bullets, Section, Text, Verdict, table
 from testbed.validation.cases import ok_records, registry
 from testbed.validation.cases.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, GATED, MAX_PENETRATION_M, ClosedLoopCase
 from testbed.validation.gates import is_known_limit, shown
+from testbed.validation.sensitivity import SENSITIVITY_CHECK
 
 POINT = "Drake point contact"
 REFERENCE = "Drake hydroelastic (the reference)"
@@ -91,7 +92,7 @@ def candidate_rows(records: list[dict]) -> list[tuple]:
     engine = [r["result"] for r in ok_records(records, "engine") if r["result"].get("available")]
     query = [r["result"]["metrics"]["methods"] for r in ok_records(records, "query_study")]
     methods = query[0] if query else {}
-    names = list(dict.fromkeys([n for s in closed for n in s["predictors"]]
+    names = list(dict.fromkeys([n for s in closed for n in s["predictors"] if n != SENSITIVITY_CHECK]
                                + [_predictor_of(m) for m in methods if _predictor_of(m)]
                                + ([sources.DEFAULT] if any(_in_scene(s) is not None for s in scenes) else [])))
     rows = [_predictor_row(n, closed, scenes, methods) for n in names]
