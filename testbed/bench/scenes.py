@@ -32,7 +32,7 @@ def open_loop(spec: str, scene: str, duration: float) -> dict:
     """In-scene figures of predictor `spec` on `scene` driven by Drake hydroelastic contact."""
     scenario = load_scenario(scene, overrides=["effects.contact.model=hydroelastic", "effects.contact_log={}",
                                                "effects.shadow_contact={}", "effects.learned_contact={}"])
-    scenario.effects.learned_contact.weights = spec
+    scenario.effects.learned_contact.predictor = spec
     summary = run_scenario(scenario, duration=duration).summary
     return {"scene": scene, "duration_s": duration,
             **{k.replace("learned_vs_hydro_", ""): summary.get(k) for k in OPEN_KEYS}}

@@ -50,7 +50,7 @@ BATCH_STEPS = 10
 class LearnedContactConfig:
     # the predictor: any learned_contact.sources spec ("improved", the shipped default when
     # None; "paper"; a weights .npz; an ONNX model; module:attribute)
-    weights: typing.Optional[str] = None
+    predictor: typing.Optional[str] = None
 
 
 def _empty() -> dict:
@@ -171,9 +171,9 @@ class LearnedContactEffect(Effect):
 
     def add_systems(self, assembly) -> list:
         try:
-            predictor = load_predictor(self.config.weights)
+            predictor = load_predictor(self.config.predictor)
         except WeightsError as e:
-            raise self.fail("weights", str(e)) from None
+            raise self.fail("predictor", str(e)) from None
         self._check_sizes(predictor)
         logger = assembly.effects["contact_log"].logger
         shadow = assembly.effects.get("shadow_contact")
