@@ -1,41 +1,41 @@
-"""The twin run against MuJoCo: `testbed compare SCENE --engine mujoco`.
+"""Any engine against Drake's ground truth: `testbed compare SCENE --engine NAME` and the
+engine case kind's row (testbed/engines/base.py: the Engine protocol).
 
-Reuses testbed/compare (H-loop's twin-run machinery): the same Drake variants and
-Trajectory records, `compare_figures` for the compare.json figures (the learned
-compare's, with MuJoCo named as MuJoCo: simulated_s_mujoco, drift_m_per_min_mujoco,
-mujoco_error, wall_per_sim_s_mujoco; MUJOCO_KEYS), the same trajectories.npz (MuJoCo under
-the `mujoco_` prefix), divergence plot and ghost replay (MuJoCo in title and legend).
-Added: MuJoCo's per-step contacts, reduced per body pair to a point and normal
-(mujoco_run.py), against Drake's centre of pressure `p_W_cop` and normal `n_W` of the
-same step and pair (contact_log rows, every `record_every` steps), and the wall time
-per simulated second of each engine measured in this one process.
+Reuses testbed/compare (the learned twin run's machinery): the same Drake variants and
+Trajectory records, `compare_figures` for the compare.json figures (the learned compare's,
+with the engine named as itself: simulated_s_<name>, drift_m_per_min_<name>, <name>_error,
+wall_per_sim_s_<name>; keys_for), the same trajectories.npz (the engine under its name's
+prefix), divergence plot and ghost replay (the engine's label in title and legend).
+Added: the engine's contact rows (one per body pair per step), against Drake's centre of
+pressure `p_W_cop` and normal `n_W` of the same step and pair (contact_log rows, every
+`record_every` steps), and the wall time per simulated second of each engine measured in
+this one process. Drake runs the scene's own contact parameters (engine_variant).
 """
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
 import numpy as np
 
+from testbed import variants
 from testbed.box_geometry import box_box_signed_distance
-from testbed.builder import build_scene
 from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures, error_lines
-from testbed.compare.runs import Trajectory, run_variant, variant
+from testbed.compare.runs import run_variant, variant
 from testbed.containers import HYDROELASTIC_MODULUS
-from testbed.effects.contact_log import ContactLogConfig
-from testbed.engines.mujoco import check_supported
-from testbed.engines.mujoco_run import MujocoRun, simulate_mujoco
+from testbed.engines import engine
 from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.physics import percentile_summary
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
+from testbed.simulation import steps_per_record
 
-RECORD_PERIOD = 0.01  # [s] spacing of the compared states (testbed/compare/twin.py's default)
-# compare_figures' names for the run under test -> compare.json's for a MuJoCo run
-MUJOCO_KEYS = {"simulated_s_learned": "simulated_s_mujoco", "drift_m_per_min_learned": "drift_m_per_min_mujoco",
-               "learned_error": "mujoco_error"}
+
+def keys_for(name: str) -> dict:
+    """compare_figures' names for the run under test -> compare.json's for engine `name`."""
+    return {"simulated_s_learned": f"simulated_s_{name}", "drift_m_per_min_learned": f"drift_m_per_min_{name}",
+            "learned_error": f"{name}_error"}
 
 
 def drake_modulus(scenario) -> float:
@@ -61,40 +61,20 @@ class SatDepth:
         return out
 
 
-def trajectory_of(run: MujocoRun, every: int):
-    """The MuJoCo run as a testbed.compare.runs.Trajectory on the grid of every `every` steps."""
-    steps = run.tables["steps"]
-    keep = np.flatnonzero(steps["step"] % every == 0)
-    energy = steps["kinetic_energy"] + steps["potential_energy"]
-    s = run.summary
-    return Trajectory(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
-                      V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
-                      wall_s=s["wall_time_s"], simulated_s=s["steps"] * s["time_step_s"],
-                      error="MuJoCo reported an unstable state" if s["diverged"] else "", names=tuple(run.free_names))
-
-
 def engine_variant(scenario, kind: str):
     """testbed.compare.runs.variant (kind 'truth' or 'point') at the scene's own contact
-    parameters: variant() runs the learned twins at the learned law's modulus (1e8 Pa),
-    but an engine is judged against the shipped ground truth (the SDF's modulus, or the
-    scene's effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
-    import dataclasses
-
-    out = variant(scenario, kind)
-    if out.effects.contact is not None and scenario.effects.contact is not None:
-        out.effects.contact = dataclasses.replace(
-            out.effects.contact, hydroelastic_modulus=scenario.effects.contact.hydroelastic_modulus)
-    return out
+    parameters: the learned twins run at the learned law's modulus (1e8 Pa), but an engine
+    is judged against the shipped ground truth (the SDF's modulus, or the scene's
+    effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
+    return variant(scenario, kind, at_law_modulus=False)
 
 
 def drake_truth(scenario, duration: float, every: int, source="<scenario>"):
     """(Trajectory, contacts table) of Drake's run of the scene's own contact model, with
     contact_log every `every` steps (its wall time includes that logging)."""
-    logged = engine_variant(scenario, "truth")
-    logged.effects.contact_log = ContactLogConfig(every_steps=every)
-    scene = build_scene(logged, source)
-    traj = run_variant(None, duration, every, scene=scene)
-    return traj, scene.effects["contact_log"].logger.tables()["contacts"]
+    run = engine("drake").run(engine_variant(scenario, "truth"), duration=duration, record_every=every,
+                              contacts=True, source=source)
+    return run.trajectory, run.contacts
 
 
 def centre_of_pressure_in_plane(rows: dict, index) -> np.ndarray:
@@ -112,10 +92,10 @@ def centre_of_pressure_in_plane(rows: dict, index) -> np.ndarray:
     return cop + s[:, None] * f
 
 
-def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
-    """Point [m] and normal [deg] errors of MuJoCo's reduced contacts against Drake's centre
-    of pressure (in the contact plane, see centre_of_pressure_in_plane) and normal, over the
-    (step, a, b) rows both have."""
+def contact_figures(drake_contacts: dict, mujoco_contacts: dict, name: str = "mujoco") -> dict:
+    """Point [m] and normal [deg] errors of engine `name`'s contact rows (`mujoco_contacts`)
+    against Drake's centre of pressure (in the contact plane, see
+    centre_of_pressure_in_plane) and normal, over the (step, a, b) rows both have."""
     def keyed(t):
         return {(int(s), int(a), int(b)): i for i, (s, a, b) in enumerate(zip(t["step"], t["a"], t["b"]))}
 
@@ -123,8 +103,8 @@ def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
     common = [k for k in drake if k in mj]
     steps = {k[0] for k in drake}
     extra = sum(1 for k in mj if k[0] in steps and k not in drake)
-    out = {"contact_rows_compared": len(common), "contact_rows_missing_mujoco": len(drake) - len(common),
-           "contact_rows_extra_mujoco": extra}
+    out = {"contact_rows_compared": len(common), f"contact_rows_missing_{name}": len(drake) - len(common),
+           f"contact_rows_extra_{name}": extra}
     if not common:
         return out
     i_d = np.array([drake[k] for k in common])
@@ -141,14 +121,21 @@ def contact_figures(drake_contacts: dict, mujoco_contacts: dict) -> dict:
     return out
 
 
-def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: float | None = None,
-                   with_point: bool = True, bare_truth: bool = True, replay: bool = False,
-                   record_every: int | None = None, time_step: float | None = None, source=None) -> dict:
+def max_penetration(contacts: dict) -> float:
+    """[m] the deepest penetration of a run's contact rows (0 without contact)."""
+    return float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0
+
+
+def compare_engine(scene, name: str = "mujoco", *, params: str | None = None, out_dir=None,
+                   duration: float | None = None, with_point: bool = True, bare_truth: bool = True,
+                   replay: bool = False, record_every: int | None = None, time_step: float | None = None,
+                   source=None) -> dict:
     """Twin run of `scene` (name, path or Scenario): Drake (the scene's contact model, the
-    ground truth) and MuJoCo (`params` 'matched' | 'default'). Returns the compare.json
-    figures (the learned compare's, MuJoCo's named by MUJOCO_KEYS, plus contact_*,
-    wall_per_sim_s_mujoco and hydroelastic_modulus_Pa, Drake's); writes out_dir/compare.json, trajectories.npz, divergence.png
-    (and replay.html when `replay`) atomically when out_dir is given.
+    ground truth) and engine `name` (`params`: one of its param_sets; None: its first).
+    Returns the compare.json figures (the learned compare's, the engine's named by keys_for,
+    plus contact_*, wall_per_sim_s_<name> and hydroelastic_modulus_Pa, Drake's); writes
+    out_dir/compare.json, trajectories.npz, divergence.png, the engine's files (and
+    replay.html when `replay`) atomically when out_dir is given.
     bare_truth: time Drake again without logging (the truth's wall time); with_point: time
     Drake point contact as well; source: the file a loaded Scenario came from (for messages).
     Raises UnsupportedSceneError before anything runs.
@@ -158,17 +145,18 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     else:
         source = resolve_scene_path(scene)
         scenario = load_scenario(source)
-    check_supported(scenario)
+    candidate = engine(name)
+    candidate.check(scenario)
+    params = params or (candidate.param_sets[0] if candidate.param_sets else None)
     if time_step is not None:
-        scenario = copy.deepcopy(scenario)
-        scenario.plant.time_step = float(time_step)
+        scenario = variants.derive(scenario, variants.timing(time_step=time_step))
     duration = scenario.duration if duration is None else float(duration)
     h = scenario.plant.time_step
-    every = record_every or max(1, int(round(RECORD_PERIOD / h)))
-    mj_run = simulate_mujoco(scenario, duration=duration, params=params)
-    mujoco = trajectory_of(mj_run, every)
+    every = record_every or steps_per_record(h)
+    run = candidate.run(scenario, duration=duration, record_every=every, params=params, contacts=True, source=source)
+    other = run.trajectory
     truth, drake_contacts = drake_truth(scenario, duration, every, source)
-    runs = {"truth": truth, "mujoco": mujoco}
+    runs = {"truth": truth, name: other}
     walls = {"truth": truth.wall_s / max(truth.simulated_s, 1e-12)}
     if bare_truth:
         bare = run_variant(engine_variant(scenario, "truth"), duration, every, source)
@@ -176,42 +164,46 @@ def compare_mujoco(scene, *, params: str = "matched", out_dir=None, duration: fl
     if with_point:
         runs["point"] = run_variant(engine_variant(scenario, "point"), duration, every, source)
         walls["point"] = runs["point"].wall_s / max(runs["point"].simulated_s, 1e-12)
-    figures = {"scene": scenario.name, "engine": "mujoco", "params": params,
-               "mujoco_version": mj_run.summary["mujoco_version"], "duration_s": duration, "time_step_s": h,
+    figures = {"scene": scenario.name, "engine": name, "params": params,
+               f"{name}_version": run.summary.get("version", ""), "duration_s": duration, "time_step_s": h,
                "record_period_s": every * h, "hydroelastic_modulus_Pa": drake_modulus(scenario)}
-    compared = compare_figures(truth, mujoco, [c for c in scenario.containers if not c.fixed], SatDepth())
-    figures.update({MUJOCO_KEYS.get(k, k): v for k, v in compared.items()})
+    compared = compare_figures(truth, other, [c for c in scenario.containers if not c.fixed], SatDepth())
+    renamed = keys_for(name)
+    figures.update({renamed.get(k, k): v for k, v in compared.items()})
     figures["wall_per_sim_s_truth_logged"] = truth.wall_s / max(truth.simulated_s, 1e-12)
     for kind, value in walls.items():
         figures[f"wall_per_sim_s_{kind}"] = value
-    figures["wall_per_sim_s_mujoco"] = mj_run.summary["wall_per_sim_s"]
-    figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures["wall_per_sim_s_mujoco"]
+    figures[f"wall_per_sim_s_{name}"] = run.summary["wall_per_sim_s"]
+    figures["speedup_vs_truth"] = figures["wall_per_sim_s_truth"] / figures[f"wall_per_sim_s_{name}"]
     if with_point:
-        figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures["wall_per_sim_s_mujoco"]
-    figures["mujoco_max_penetration_m"] = mj_run.summary["max_penetration_m"]
-    figures.update(contact_figures(drake_contacts, mj_run.tables["contacts"]))
+        figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures[f"wall_per_sim_s_{name}"]
+    figures[f"{name}_max_penetration_m"] = max_penetration(run.contacts)
+    figures.update(contact_figures(drake_contacts, run.contacts, name))
     if out_dir is not None:
         with atomic_directory(out_dir) as tmp:
-            artifacts.write_series(tmp / "trajectories.npz", runs, under_test="mujoco")
-            artifacts.plot_divergence(tmp / "divergence.png", truth, mujoco, scenario.name,
-                                      f"{params} contact parameters", label="MuJoCo")
+            artifacts.write_series(tmp / "trajectories.npz", runs, under_test=name)
+            artifacts.plot_divergence(tmp / "divergence.png", truth, other, scenario.name,
+                                      f"{params} contact parameters", label=candidate.label)
             if replay:
-                artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, mujoco, label="mujoco")
-            (tmp / "mujoco.xml").write_text(mj_run.mjcf)
+                artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, other, label=name)
+            for file, text in run.files.items():
+                (tmp / file).write_text(text)
             write_json(tmp / "compare.json", figures)
         figures["out_dir"] = str(Path(out_dir))
     return figures
 
 
-def format_mujoco_figures(f: dict) -> str:
-    """The few lines `testbed compare SCENE --engine mujoco` prints."""
+def format_engine_figures(f: dict) -> str:
+    """The few lines `testbed compare SCENE --engine NAME` prints."""
+    name = f["engine"]
+    label = engine(name).label
     other = ("" if f["hydroelastic_modulus_Pa"] == KAPPA_MODULUS else
              f"; `testbed compare` without --engine runs the learned loop and its Drake truth at the learned law's "
              f"{KAPPA_MODULUS:.0e} Pa: its figures are against another truth")
     lines = [
-        f"scene {f['scene']} in MuJoCo {f['mujoco_version']} ({f['params']} contact parameters): "
-        f"{'DIVERGED' if f['diverged'] else 'ran'} ({f['simulated_s_mujoco']:g} of {f['duration_s']:g} s)",
-        *error_lines(f, "MuJoCo", f["wall_per_sim_s_mujoco"]),
+        f"scene {f['scene']} in {label} {f[f'{name}_version']} ({f['params']} contact parameters): "
+        f"{'DIVERGED' if f['diverged'] else 'ran'} ({f[f'simulated_s_{name}']:g} of {f['duration_s']:g} s)",
+        *error_lines(f, label, f[f"wall_per_sim_s_{name}"]),
         f"  Drake's containers at a hydroelastic modulus of {f['hydroelastic_modulus_Pa']:.0e} Pa (the scene's ground "
         f"truth{other})",
     ]
@@ -222,31 +214,34 @@ def format_mujoco_figures(f: dict) -> str:
     return "\n".join(lines)
 
 
-def engine_table_row(scene, *, params=("matched", "default"), duration: float | None = None,
+def engine_table_row(scene, name: str = "mujoco", *, params=None, duration: float | None = None,
                      record_every: int | None = None) -> dict:
-    """One scene, Drake run once and MuJoCo once per parameter set, all in this process:
+    """One scene, Drake run once and engine `name` once per parameter set (None: all its
+    param_sets), all in this process:
     {'scene', 'duration_s', 'wall_per_sim_s_hydroelastic', 'wall_per_sim_s_point',
-     'mujoco': {params: figures}} where figures are compare.json's (position, angle,
-    penetration, energy, contact point/normal errors, wall_per_sim_s_mujoco) and the
+     name: {params: figures}} where figures are compare.json's (position, angle,
+    penetration, energy, contact point/normal errors, wall_per_sim_s_<name>) and the
     speed-ups against Drake's bare hydroelastic and point runs. For the validate section
-    "the engine users would pick instead". Raises UnsupportedSceneError (crane scenes)."""
+    "the engine users would pick instead". Raises UnsupportedSceneError."""
     scenario = scene if isinstance(scene, Scenario) else load_scenario(resolve_scene_path(scene))
-    check_supported(scenario)
+    candidate = engine(name)
+    candidate.check(scenario)
     duration = scenario.duration if duration is None else float(duration)
-    every = record_every or max(1, int(round(RECORD_PERIOD / scenario.plant.time_step)))
+    every = record_every or steps_per_record(scenario.plant.time_step)
     truth, drake_contacts = drake_truth(scenario, duration, every)
     walls = {}
     for kind, label in (("truth", "hydroelastic"), ("point", "point")):
         bare = run_variant(engine_variant(scenario, kind), duration, every)
         walls[label] = bare.wall_s / max(bare.simulated_s, 1e-12)
     row = {"scene": scenario.name, "duration_s": duration, "time_step_s": scenario.plant.time_step,
-           **{f"wall_per_sim_s_{k}": v for k, v in walls.items()}, "mujoco": {}}
-    for name in params:
-        run = simulate_mujoco(scenario, duration=duration, params=name)
-        figures = compare_figures(truth, trajectory_of(run, every), [c for c in scenario.containers if not c.fixed], SatDepth())
-        figures.update(contact_figures(drake_contacts, run.tables["contacts"]))
-        figures["wall_per_sim_s_mujoco"] = run.summary["wall_per_sim_s"]
-        figures["speedup_vs_hydroelastic"] = walls["hydroelastic"] / run.summary["wall_per_sim_s"]
-        figures["speedup_vs_point"] = walls["point"] / run.summary["wall_per_sim_s"]
-        row["mujoco"][name] = figures
+           **{f"wall_per_sim_s_{k}": v for k, v in walls.items()}, name: {}}
+    for p in (params or candidate.param_sets or (None,)):
+        run = candidate.run(scenario, duration=duration, record_every=every, params=p, contacts=True)
+        figures = compare_figures(truth, run.trajectory, [c for c in scenario.containers if not c.fixed], SatDepth())
+        figures.update(contact_figures(drake_contacts, run.contacts, name))
+        wall = run.summary["wall_per_sim_s"]
+        figures[f"wall_per_sim_s_{name}"] = wall
+        figures["speedup_vs_hydroelastic"] = walls["hydroelastic"] / wall
+        figures["speedup_vs_point"] = walls["point"] / wall
+        row[name][p] = figures
     return row

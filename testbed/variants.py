@@ -1,0 +1,136 @@
+"""The one home of "the same scene, but ...": composable edits of a loaded Scenario.
+
+`derive(scenario, *edits)` deep-copies the scenario once and applies each edit to the copy
+in the order given; the caller's scenario is never changed. An edit is a callable
+`(copy) -> None`; the ones here are the variants the commands, studies and engines use:
+
+  physics_only()               every effect whose Role is not PHYSICS off (recorders,
+                               observers, viewers): the dynamics alone, for timing
+  keep_effects(names)          only the named effects (the bare scene of a cost study)
+  without(name)                one effect off (e.g. the learned loop, so a twin puts its own back)
+  recorders(on)                every RECORDER effect on with its study_config (on) or off
+  contact(model, approximation)  the contact model (and approximation), in effects.contact
+                               AND the plant's copies of them (kept consistent here only)
+  modulus(value)               effects.contact.hydroelastic_modulus [Pa]; None: the learned
+                               law's (learned_force_law.law_modulus of the scene)
+  learned_loop(predictor)      the learned closed loop (learned_dynamics) on: the scene's own
+                               config if it declares one, else the defaults; `predictor`
+                               replaces its predictor; shadow_truth off
+  timing(time_step, duration)  plant.time_step [s] and/or duration [s]
+
+Example: the twin run's point-contact Drake run is
+`derive(s, modulus(None), physics_only(), without("learned_dynamics"), contact("point"))`.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+from testbed.effects import Role, registry
+from testbed.effects.contact import drake_approximation
+from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+from testbed.learned_force_law import law_modulus
+
+
+def derive(scenario, *edits):
+    """A deep copy of `scenario` with `edits` applied in order (see the module doc)."""
+    out = copy.deepcopy(scenario)
+    for edit in edits:
+        edit(out)
+    return out
+
+
+def physics_only():
+    """Every effect whose role is not PHYSICS off."""
+    def edit(s):
+        for name, cls in registry().items():
+            if cls.role is not Role.PHYSICS and hasattr(s.effects, name):
+                setattr(s.effects, name, None)
+    return edit
+
+
+def keep_effects(names):
+    """Only the effects in `names` (as the scene declares them); every other one off."""
+    keep = set(names)
+
+    def edit(s):
+        for name in registry():
+            if name not in keep and hasattr(s.effects, name):
+                setattr(s.effects, name, None)
+    return edit
+
+
+def without(name: str):
+    """The effect `name` off."""
+    def edit(s):
+        setattr(s.effects, name, None)
+    return edit
+
+
+def recorders(on: bool = True):
+    """Every RECORDER effect (Drake's own contact: the ground truth) on with its
+    study_config (`on`) or off."""
+    def edit(s):
+        for name, cls in registry().items():
+            if cls.role is Role.RECORDER:
+                setattr(s.effects, name, cls.study_config() if on else None)
+    return edit
+
+
+def contact(model: str | None = None, approximation: str | None = None):
+    """Contact `model` and/or `approximation` (Drake's names, or "auto") in effects.contact,
+    with the plant's contact_model and discrete_contact_approximation set to match. An
+    approximation left None keeps the plant's as it is."""
+    def edit(s):
+        if model is not None:
+            s.effects.contact = dataclasses.replace(s.effects.contact, model=model)
+            s.plant.contact_model = model
+        if approximation is not None:
+            s.effects.contact = dataclasses.replace(s.effects.contact, approximation=approximation)
+            s.plant.discrete_contact_approximation = drake_approximation(approximation, s.effects.contact.model)
+    return edit
+
+
+def modulus(value: float | None = None):
+    """effects.contact.hydroelastic_modulus = `value` [Pa]; None: the learned law's modulus
+    (the scene's own when it sets one, else learned_force_law.KAPPA_MODULUS). No contact
+    effect: nothing to set."""
+    def edit(s):
+        if s.effects.contact is not None:
+            given = law_modulus(s) if value is None else value
+            s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_modulus=given)
+    return edit
+
+
+def scene_modulus(scenario):
+    """effects.contact.hydroelastic_modulus as `scenario` (the original scene) sets it (None
+    included: the SDF's): undoes a `modulus` edit for an engine judged against the shipped
+    ground truth."""
+    given = scenario.effects.contact.hydroelastic_modulus if scenario.effects.contact is not None else None
+
+    def edit(s):
+        if s.effects.contact is not None and scenario.effects.contact is not None:
+            s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_modulus=given)
+    return edit
+
+
+def learned_loop(predictor: str | None = None, given=None):
+    """learned_dynamics on: `given` (a LearnedDynamicsConfig; None: the copy's own if it
+    declares one, else the defaults) with `predictor` (None: that config's) and no shadow truth."""
+    def edit(s):
+        base = given if given is not None else s.effects.learned_dynamics
+        config = dataclasses.replace(base) if base is not None else LearnedDynamicsConfig()
+        s.effects.learned_dynamics = dataclasses.replace(config, predictor=predictor or config.predictor,
+                                                         shadow_truth=False)
+    return edit
+
+
+def timing(time_step: float | None = None, duration: float | None = None):
+    """plant.time_step [s] and/or duration [s] (None: unchanged)."""
+    def edit(s):
+        if time_step is not None:
+            s.plant.time_step = float(time_step)
+        if duration is not None:
+            s.duration = float(duration)
+    return edit
