@@ -6,7 +6,7 @@ convention, the same for every caller: anything the simulator or a system raises
 solver, a predictor) or a plant state that turns non-finite ends the run at that sample;
 the samples up to then are kept and the returned Failure says what happened (`simulate`
 turns it into a SimulationError, `record_run` into Trajectory.error, the simulation study
-into its row's status). Recorded runs sample every RECORD_PERIOD of simulated time.
+into its row's status). Recorded runs sample every records.RECORD_PERIOD of simulated time.
 
 `record_run` records, for the m free containers of a built scene, every `record_every`
 plant steps: p_WB (m, 3) [m], q_WB (m, 4) (w, x, y, z), V_WB (m, 6) [rad/s, m/s]
@@ -29,13 +29,6 @@ from testbed.progress import progress as progress_bar
 from testbed.records import atomic_directory, save_table, write_json
 from testbed.scenario import Scenario, dump_scenario
 from testbed.watchdog import run_watched
-
-RECORD_PERIOD = 0.01  # [s] spacing of the recorded (sampled) states of every recorded run
-
-
-def steps_per_record(time_step: float, period: float = RECORD_PERIOD) -> int:
-    """Plant steps between records: `period` [s] in whole steps of `time_step` [s] (>= 1)."""
-    return max(1, int(round(period / time_step)))
 
 
 @dataclasses.dataclass

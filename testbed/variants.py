@@ -9,10 +9,15 @@ in the order given; the caller's scenario is never changed. An edit is a callabl
   keep_effects(names)          only the named effects (the bare scene of a cost study)
   without(name)                one effect off (e.g. the learned loop, so a twin puts its own back)
   recorders(on)                every RECORDER effect on with its study_config (on) or off
+  effects_on(names)            the named effects on with their study_config (a cost study)
+  log_contacts(every)          the contact_log recorder on, every `every` steps (None: one
+                               RECORD_PERIOD in whole steps; keep=True: a declared one stays)
   contact(model, approximation)  the contact model (and approximation), in effects.contact
                                AND the plant's copies of them (kept consistent here only)
   modulus(value)               effects.contact.hydroelastic_modulus [Pa]; None: the learned
                                law's (learned_force_law.law_modulus of the scene)
+  contact_params(...)          the other contact settings: hydroelastic margin [m], modulus [Pa]
+                               and the plant's stiction tolerance [m/s], as given
   learned_loop(predictor)      the learned closed loop (learned_dynamics) on: the scene's own
                                config if it declares one, else the defaults; `predictor`
                                replaces its predictor; shadow_truth off
@@ -29,9 +34,12 @@ import dataclasses
 
 from testbed.effects import Role, registry
 from testbed.effects.contact import drake_approximation
+from testbed.effects.contact_log import ContactLogConfig
 from testbed.effects.learned_dynamics import LearnedDynamicsConfig
 from testbed.learned_force_law import law_modulus
+from testbed.records import steps_per_record
 
+KEEP = object()  # contact_params: leave this setting as it is
 
 def derive(scenario, *edits):
     """A deep copy of `scenario` with `edits` applied in order (see the module doc)."""
@@ -75,6 +83,39 @@ def recorders(on: bool = True):
         for name, cls in registry().items():
             if cls.role is Role.RECORDER:
                 setattr(s.effects, name, cls.study_config() if on else None)
+    return edit
+
+
+def effects_on(names):
+    """The effects in `names` on, each with its study_config (its defaults; a viewer never
+    on a fixed port)."""
+    def edit(s):
+        for name in names:
+            setattr(s.effects, name, registry()[name].study_config())
+    return edit
+
+
+def log_contacts(every: int | None = 1, *, keep: bool = False):
+    """contact_log on, every `every` plant steps (None: records.RECORD_PERIOD in whole steps
+    of the copy's time step, applied after any timing edit before it); keep: a contact_log
+    the scene declares stays as it is."""
+    def edit(s):
+        if keep and s.effects.contact_log is not None:
+            return
+        s.effects.contact_log = ContactLogConfig(every_steps=every or steps_per_record(s.plant.time_step))
+    return edit
+
+
+def contact_params(*, margin=KEEP, modulus=KEEP, stiction_tolerance=KEEP):
+    """effects.contact.hydroelastic_margin [m] and hydroelastic_modulus [Pa] (None: the
+    SDF's) and plant.stiction_tolerance [m/s]; a setting left out stays as it is."""
+    def edit(s):
+        if margin is not KEEP:
+            s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_margin=margin)
+        if modulus is not KEEP:
+            s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_modulus=modulus)
+        if stiction_tolerance is not KEEP:
+            s.plant.stiction_tolerance = stiction_tolerance
     return edit
 
 

@@ -12,9 +12,8 @@ from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
 from testbed.errors import TestbedError
 from testbed.learned_force_law import law_modulus
-from testbed.records import atomic_directory, write_json
+from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-from testbed.simulation import steps_per_record
 
 
 def _load(scene, source=None):

@@ -27,9 +27,8 @@ from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.engines import engine
 from testbed.learned_force_law import KAPPA_MODULUS
 from testbed.physics import percentile_summary
-from testbed.records import atomic_directory, write_json
+from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-from testbed.simulation import steps_per_record
 
 
 def keys_for(name: str) -> dict:

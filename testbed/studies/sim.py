@@ -20,8 +20,6 @@ of the scene's own contact model (the ground truth), so that every engine's curv
 one chart.
 """
 
-import copy
-
 import numpy as np
 
 from testbed import variants
@@ -31,8 +29,9 @@ from testbed.effects import registry
 from testbed.engines import engines as registered_engines
 from testbed.errors import OptionalDependencyError, TestbedError
 from testbed.progress import progress as progress_bar
+from testbed.records import RECORD_PERIOD, steps_per_record
 from testbed.scenario import Scenario, load_scenario
-from testbed.simulation import RECORD_PERIOD, advance, simulate, start, steps_per_record
+from testbed.simulation import advance, simulate, start
 
 TIMING_REPEATS = 3  # other engines' sweep points: the fastest of this many identical runs is timed (ms each)
 
@@ -217,10 +216,8 @@ def effect_costs(scene: str, *, effects=None, duration: float = 0.5, repeats: in
             rows.append({"effect": name, "status": "not available"})
             continue
         cls = registry()[name]
-        variant = copy.deepcopy(bare)
-        needed = [n for n in cls.requires if getattr(variant.effects, n) is None]
-        for n in needed + [name]:
-            setattr(variant.effects, n, registry()[n].study_config())
+        needed = [n for n in cls.requires if getattr(bare.effects, n) is None]
+        variant = variants.derive(bare, variants.effects_on(needed + [name]))
         times = {"bare": [], "effect": []}
         try:
             for _ in range(repeats):
