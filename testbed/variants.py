@@ -4,8 +4,9 @@
 in the order given; the caller's scenario is never changed. An edit is a callable
 `(copy) -> None`; the ones here are the variants the commands, studies and engines use:
 
-  physics_only()               every effect whose Role is not PHYSICS off (recorders,
-                               observers, viewers): the dynamics alone, for timing
+  physics_only(learned)        every effect whose Role is not PHYSICS off (recorders,
+                               observers, viewers): the dynamics alone, for timing;
+                               learned=False: the learned loop off too (Drake's own contact)
   keep_effects(names)          only the named effects (the bare scene of a cost study)
   without(name)                one effect off (e.g. the learned loop, so a twin puts its own back)
   recorders(on)                every RECORDER effect on with its study_config (on) or off
@@ -24,7 +25,7 @@ in the order given; the caller's scenario is never changed. An edit is a callabl
   timing(time_step, duration)  plant.time_step [s] and/or duration [s]
 
 Example: the twin run's point-contact Drake run is
-`derive(s, modulus(None), physics_only(), without("learned_dynamics"), contact("point"))`.
+`derive(s, modulus(None), physics_only(learned=False), contact("point"))`.
 """
 
 from __future__ import annotations
@@ -49,11 +50,12 @@ def derive(scenario, *edits):
     return out
 
 
-def physics_only():
-    """Every effect whose role is not PHYSICS off."""
+def physics_only(learned: bool = True):
+    """Every effect whose role is not PHYSICS off; `learned` False: learned_dynamics (the
+    learned closed loop, a PHYSICS effect) off as well."""
     def edit(s):
         for name, cls in registry().items():
-            if cls.role is not Role.PHYSICS and hasattr(s.effects, name):
+            if (cls.role is not Role.PHYSICS or (not learned and name == "learned_dynamics")) and hasattr(s.effects, name):
                 setattr(s.effects, name, None)
     return edit
 

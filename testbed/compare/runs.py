@@ -15,19 +15,16 @@ from testbed.simulation import Trajectory, record_run
 KINDS = ("truth", "point", "learned")
 
 
-def variant(scenario, kind: str, predictor: str | None = None, *, at_law_modulus: bool = True):
+def variant(scenario, kind: str, predictor: str | None = None):
     """A copy of `scenario` for kind 'truth' (the scene's own contact model), 'point'
     (Drake point contact) or 'learned' (learned_dynamics with `predictor`; None: the
     scene's own learned_dynamics config if it declares one, else "improved"). Every kind
     runs the containers at the learned law's modulus (law_modulus: 1e8 Pa unless the scene
     sets one), not the SDF's 1e9 Pa: like is compared with like (learned_force_law.KAPPA_MODULUS
-    is its fit, and the stiffest its explicit step takes at 1 ms). at_law_modulus False
-    keeps the scene's own contact parameters (another engine is judged against the shipped
-    ground truth: testbed/engines/comparison.py)."""
+    is its fit, and the stiffest its explicit step takes at 1 ms)."""
     if kind not in KINDS:
         raise ValueError(f"unknown variant {kind!r}")
-    edits = [variants.modulus(None)] if at_law_modulus else []
-    edits += [variants.physics_only(), variants.without("learned_dynamics")]
+    edits = [variants.modulus(None), variants.physics_only(learned=False)]
     if kind == "point":
         edits.append(variants.contact("point"))
     elif kind == "learned":

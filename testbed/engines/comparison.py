@@ -22,7 +22,6 @@ from testbed import variants
 from testbed.box_geometry import box_box_signed_distance
 from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures, error_lines
-from testbed.compare.runs import run_variant, variant
 from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.engines import engine
 from testbed.learned_force_law import KAPPA_MODULUS
@@ -61,19 +60,26 @@ class SatDepth:
 
 
 def engine_variant(scenario, kind: str):
-    """testbed.compare.runs.variant (kind 'truth' or 'point') at the scene's own contact
-    parameters: the learned twins run at the learned law's modulus (1e8 Pa), but an engine
-    is judged against the shipped ground truth (the SDF's modulus, or the scene's
-    effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
-    return variant(scenario, kind, at_law_modulus=False)
+    """The scene's dynamics alone (PHYSICS effects, no learned loop) for Drake's kind
+    'truth' (its own contact model) or 'point', at the scene's own contact parameters: the
+    learned twins (testbed.compare.runs.variant) run at the learned law's modulus (1e8 Pa),
+    but an engine is judged against the shipped ground truth (the SDF's modulus, or the
+    scene's effects.contact.hydroelastic_modulus), and MuJoCo's matched set follows it."""
+    point = [variants.contact("point")] if kind == "point" else []
+    return variants.derive(scenario, variants.physics_only(learned=False), *point)
 
 
-def drake_truth(scenario, duration: float, every: int, source="<scenario>"):
-    """(Trajectory, contacts table) of Drake's run of the scene's own contact model, with
-    contact_log every `every` steps (its wall time includes that logging)."""
-    run = engine("drake").run(engine_variant(scenario, "truth"), duration=duration, record_every=every,
-                              contacts=True, source=source)
-    return run.trajectory, run.contacts
+def drake_runs(scenario, duration: float, every: int, source="<scenario>", *, bare_truth=True, with_point=True):
+    """Drake's runs of the scene's dynamics alone (engine_variant): {'logged': the truth with
+    contact_log every `every` steps (its wall time includes that logging), 'truth': the same
+    unlogged (when `bare_truth`), 'point': point contact (when `with_point`)}: EngineRuns."""
+    drake, ground = engine("drake"), engine_variant(scenario, "truth")
+    out = {"logged": drake.run(ground, duration=duration, record_every=every, contacts=True, source=source)}
+    if bare_truth:
+        out["truth"] = drake.run(ground, duration=duration, record_every=every, source=source)
+    if with_point:
+        out["point"] = drake.run(ground, duration=duration, record_every=every, params="point", source=source)
+    return out
 
 
 def centre_of_pressure_in_plane(rows: dict, index) -> np.ndarray:
@@ -154,15 +160,13 @@ def compare_engine(scene, name: str = "mujoco", *, params: str | None = None, ou
     every = record_every or steps_per_record(h)
     run = candidate.run(scenario, duration=duration, record_every=every, params=params, contacts=True, source=source)
     other = run.trajectory
-    truth, drake_contacts = drake_truth(scenario, duration, every, source)
+    drake = drake_runs(scenario, duration, every, source, bare_truth=bare_truth, with_point=with_point)
+    truth, drake_contacts = drake["logged"].trajectory, drake["logged"].contacts
     runs = {"truth": truth, name: other}
-    walls = {"truth": truth.wall_s / max(truth.simulated_s, 1e-12)}
-    if bare_truth:
-        bare = run_variant(engine_variant(scenario, "truth"), duration, every, source)
-        walls["truth"] = bare.wall_s / max(bare.simulated_s, 1e-12)
+    walls = {"truth": drake.get("truth", drake["logged"]).summary["wall_per_sim_s"]}
     if with_point:
-        runs["point"] = run_variant(engine_variant(scenario, "point"), duration, every, source)
-        walls["point"] = runs["point"].wall_s / max(runs["point"].simulated_s, 1e-12)
+        runs["point"] = drake["point"].trajectory
+        walls["point"] = drake["point"].summary["wall_per_sim_s"]
     figures = {"scene": scenario.name, "engine": name, "params": params,
                f"{name}_version": run.summary.get("version", ""), "duration_s": duration, "time_step_s": h,
                "record_period_s": every * h, "hydroelastic_modulus_Pa": drake_modulus(scenario)}
@@ -227,11 +231,9 @@ def engine_table_row(scene, name: str = "mujoco", *, params=None, duration: floa
     candidate.check(scenario)
     duration = scenario.duration if duration is None else float(duration)
     every = record_every or steps_per_record(scenario.plant.time_step)
-    truth, drake_contacts = drake_truth(scenario, duration, every)
-    walls = {}
-    for kind, label in (("truth", "hydroelastic"), ("point", "point")):
-        bare = run_variant(engine_variant(scenario, kind), duration, every)
-        walls[label] = bare.wall_s / max(bare.simulated_s, 1e-12)
+    drake = drake_runs(scenario, duration, every)
+    truth, drake_contacts = drake["logged"].trajectory, drake["logged"].contacts
+    walls = {label: drake[kind].summary["wall_per_sim_s"] for kind, label in (("truth", "hydroelastic"), ("point", "point"))}
     row = {"scene": scenario.name, "duration_s": duration, "time_step_s": scenario.plant.time_step,
            **{f"wall_per_sim_s_{k}": v for k, v in walls.items()}, name: {}}
     for p in (params or candidate.param_sets or (None,)):

@@ -20,9 +20,8 @@ from __future__ import annotations
 
 from testbed import variants
 from testbed.compare.metrics import compare_figures
-from testbed.compare.runs import variant
 from testbed.engines import candidates
-from testbed.engines.comparison import SatDepth
+from testbed.engines.comparison import SatDepth, engine_variant
 
 # the figures of each row (compare_figures' keys; lengths [m], angles [deg], energies [J])
 ROW_KEYS = ("diverged", "simulated_s_learned", "position_error_max_m", "final_position_error_max_m",
@@ -42,8 +41,9 @@ def others() -> list:
 
 def check_three_way(scenario) -> None:
     """Raises UnsupportedSceneError before anything runs when an engine cannot run the scene."""
+    ground = engine_variant(scenario, "truth")
     for e in others():
-        e.check(variant(scenario, "truth"))
+        e.check(ground)
 
 
 def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
@@ -58,10 +58,10 @@ def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
     truth = runs["truth"]
     truth_wall = truth.wall_s / max(truth.simulated_s, 1e-12)
     candidates_ = [("Drake point", runs["point"], None), (f"learned ({figures['predictor']})", runs["learned"], None)]
-    versions = {}
+    versions, ground = {}, engine_variant(scenario, "truth")  # = the twins' truth: the scene is at the law's modulus
     for e in others():
         chosen = params if params in e.param_sets else (e.param_sets[0] if e.param_sets else None)
-        run = e.run(variant(scenario, "truth"), duration=figures["duration_s"], record_every=every, params=chosen)
+        run = e.run(ground, duration=figures["duration_s"], record_every=every, params=chosen)
         versions[f"{e.name}_version"] = run.summary.get("version", "")
         candidates_.append((f"{e.label} ({chosen})" if chosen else e.label, run.trajectory, run.summary["wall_per_sim_s"]))
     out = []
