@@ -13,8 +13,8 @@ in the order given; the caller's scenario is never changed. An edit is a callabl
   effects_on(names)            the named effects on with their study_config (a cost study)
   log_contacts(every)          the contact_log recorder on, every `every` steps (None: one
                                RECORD_PERIOD in whole steps; keep=True: a declared one stays)
-  contact(model, approximation)  the contact model (and approximation), in effects.contact
-                               AND the plant's copies of them (kept consistent here only)
+  contact(model, approximation)  the contact model (and approximation) in effects.contact,
+                               the plant's copies derived again (scenario.derive_plant)
   modulus(value)               effects.contact.hydroelastic_modulus [Pa]; None: the learned
                                law's (learned_force_law.law_modulus of the scene)
   contact_params(...)          the other contact settings: hydroelastic margin [m], modulus [Pa]
@@ -34,11 +34,11 @@ import copy
 import dataclasses
 
 from testbed.effects import Role, registry
-from testbed.effects.contact import drake_approximation
 from testbed.effects.contact_log import ContactLogConfig
 from testbed.effects.learned_dynamics import LearnedDynamicsConfig
 from testbed.learned_force_law import law_modulus
 from testbed.records import steps_per_record
+from testbed.scenario import derive_plant
 
 KEEP = object()  # contact_params: leave this setting as it is
 
@@ -122,16 +122,14 @@ def contact_params(*, margin=KEEP, modulus=KEEP, stiction_tolerance=KEEP):
 
 
 def contact(model: str | None = None, approximation: str | None = None):
-    """Contact `model` and/or `approximation` (Drake's names, or "auto") in effects.contact,
-    with the plant's contact_model and discrete_contact_approximation set to match. An
-    approximation left None keeps the plant's as it is."""
+    """Contact `model` and/or `approximation` (Drake's names, or "auto") in effects.contact;
+    the plant's copies of both are derived again from it (scenario.derive_plant)."""
     def edit(s):
         if model is not None:
             s.effects.contact = dataclasses.replace(s.effects.contact, model=model)
-            s.plant.contact_model = model
         if approximation is not None:
             s.effects.contact = dataclasses.replace(s.effects.contact, approximation=approximation)
-            s.plant.discrete_contact_approximation = drake_approximation(approximation, s.effects.contact.model)
+        derive_plant(s)
     return edit
 
 
