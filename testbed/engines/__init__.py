@@ -35,4 +35,9 @@ def candidates() -> dict[str, Engine]:
     return {name: e for name, e in engines().items() if not e.reference}
 
 
-__all__ = ["Engine", "EngineRun", "UnsupportedSceneError", "candidates", "engine", "engines", "register"]
+def alternatives() -> list[Engine]:
+    """The whole-simulator alternatives: every candidate but the gated learned loop (MuJoCo)."""
+    return [e for e in candidates().values() if not e.gated]
+
+
+__all__ = ["Engine", "EngineRun", "UnsupportedSceneError", "alternatives", "candidates", "engine", "engines", "register"]

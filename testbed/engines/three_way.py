@@ -13,14 +13,14 @@ scene's modulus).
 Every row's figures come from testbed.compare.metrics.compare_figures against that one
 truth run, with the separating-axis depth (SatDepth) for the penetration of all three;
 wall times are per simulated second [s], measured in this one process.
-Adding an engine adds its row here (`candidates`, less the gated learned loop).
+Adding an engine adds its row here (testbed.engines.alternatives).
 """
 
 from __future__ import annotations
 
 from testbed import variants
 from testbed.compare.metrics import compare_figures
-from testbed.engines import candidates
+from testbed.engines import alternatives
 from testbed.engines.comparison import SatDepth, engine_variant
 
 # the figures of each row (compare_figures' keys; lengths [m], angles [deg], energies [J])
@@ -34,15 +34,10 @@ def at_law_modulus(scenario):
     return variants.derive(scenario, variants.modulus(None))
 
 
-def others() -> list:
-    """The engines beside Drake point and the learned loop (every candidate but the gated one)."""
-    return [e for e in candidates().values() if not e.gated]
-
-
 def check_three_way(scenario) -> None:
     """Raises UnsupportedSceneError before anything runs when an engine cannot run the scene."""
     ground = engine_variant(scenario, "truth")
-    for e in others():
+    for e in alternatives():
         e.check(ground)
 
 
@@ -59,7 +54,7 @@ def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
     truth_wall = truth.wall_s / max(truth.simulated_s, 1e-12)
     candidates_ = [("Drake point", runs["point"], None), (f"learned ({figures['predictor']})", runs["learned"], None)]
     versions, ground = {}, engine_variant(scenario, "truth")  # = the twins' truth: the scene is at the law's modulus
-    for e in others():
+    for e in alternatives():
         chosen = params if params in e.param_sets else (e.param_sets[0] if e.param_sets else None)
         run = e.run(ground, duration=figures["duration_s"], record_every=every, params=chosen)
         versions[f"{e.name}_version"] = run.summary.get("version", "")

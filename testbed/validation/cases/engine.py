@@ -21,9 +21,8 @@ from __future__ import annotations
 import math
 
 from testbed.document import Section, Text, table
-from testbed.engines import UnsupportedSceneError, engine
+from testbed.engines import UnsupportedSceneError, alternatives, engine
 from testbed.engines.comparison import engine_table_row
-from testbed.engines.three_way import others
 from testbed.validation.cases import Case, CaseKind, register
 
 SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
@@ -77,7 +76,7 @@ class EngineCase(CaseKind):
     def run(self, scene: str, duration: float) -> dict:
         """Every other engine's table row; unavailable (with the first reason) when none ran."""
         out, reasons = {"scene": scene}, []
-        for e in others():
+        for e in alternatives():
             reason = e.unavailable()
             if reason is None:
                 try:
@@ -113,7 +112,7 @@ class EngineCase(CaseKind):
                  "x vs point", "position err max [mm]", "final position err [mm]", "final angle err [deg]",
                  "max penetration [mm]", "energy gain [J]", "contact point err median [mm]", "p95 [mm]",
                  "normal err max [deg]", "diverged"],
-                [_row(s, e.name, p, f) for s in ran for e in others() for p, f in s.get(e.name, {}).items()]))
+                [_row(s, e.name, p, f) for s in ran for e in alternatives() for p, f in s.get(e.name, {}).items()]))
         missing = [s for s in results if not s.get("available")]
         if missing:
             blocks.append(Text("Unavailable: " + "; ".join(f"{s['scene']} ({s['reason']})" for s in missing)))
