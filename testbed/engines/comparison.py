@@ -97,14 +97,14 @@ def centre_of_pressure_in_plane(rows: dict, index) -> np.ndarray:
     return cop + s[:, None] * f
 
 
-def contact_figures(drake_contacts: dict, mujoco_contacts: dict, name: str = "mujoco") -> dict:
-    """Point [m] and normal [deg] errors of engine `name`'s contact rows (`mujoco_contacts`)
+def contact_figures(drake_contacts: dict, other_contacts: dict, name: str) -> dict:
+    """Point [m] and normal [deg] errors of engine `name`'s contact rows (`other_contacts`)
     against Drake's centre of pressure (in the contact plane, see
     centre_of_pressure_in_plane) and normal, over the (step, a, b) rows both have."""
     def keyed(t):
         return {(int(s), int(a), int(b)): i for i, (s, a, b) in enumerate(zip(t["step"], t["a"], t["b"]))}
 
-    drake, mj = keyed(drake_contacts), keyed(mujoco_contacts)
+    drake, mj = keyed(drake_contacts), keyed(other_contacts)
     common = [k for k in drake if k in mj]
     steps = {k[0] for k in drake}
     extra = sum(1 for k in mj if k[0] in steps and k not in drake)
@@ -114,8 +114,8 @@ def contact_figures(drake_contacts: dict, mujoco_contacts: dict, name: str = "mu
         return out
     i_d = np.array([drake[k] for k in common])
     i_m = np.array([mj[k] for k in common])
-    point_err = np.linalg.norm(mujoco_contacts["p_W_cop"][i_m] - centre_of_pressure_in_plane(drake_contacts, i_d), axis=1)
-    cos = np.einsum("ni,ni->n", mujoco_contacts["n_W"][i_m], drake_contacts["n_W"][i_d])
+    point_err = np.linalg.norm(other_contacts["p_W_cop"][i_m] - centre_of_pressure_in_plane(drake_contacts, i_d), axis=1)
+    cos = np.einsum("ni,ni->n", other_contacts["n_W"][i_m], drake_contacts["n_W"][i_d])
     angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
     last = np.array([k[0] for k in common]) == max(k[0] for k in common)  # the last compared step
     for name, values in (("contact_point_error", point_err), ("contact_normal_error", angle)):
@@ -131,7 +131,7 @@ def max_penetration(contacts: dict) -> float:
     return float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0
 
 
-def compare_engine(scene, name: str = "mujoco", *, params: str | None = None, out_dir=None,
+def compare_engine(scene, name: str, *, params: str | None = None, out_dir=None,
                    duration: float | None = None, with_point: bool = True, bare_truth: bool = True,
                    replay: bool = False, record_every: int | None = None, time_step: float | None = None,
                    source=None) -> dict:
@@ -217,7 +217,7 @@ def format_engine_figures(f: dict) -> str:
     return "\n".join(lines)
 
 
-def engine_table_row(scene, name: str = "mujoco", *, params=None, duration: float | None = None,
+def engine_table_row(scene, name: str, *, params=None, duration: float | None = None,
                      record_every: int | None = None) -> dict:
     """One scene, Drake run once and engine `name` once per parameter set (None: all its
     param_sets), all in this process:

@@ -27,7 +27,7 @@ from testbed.validation.cases import Case, CaseKind, register
 
 SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
 SECTION_TITLE = "The engine users would pick instead"
-PARAMS = engine("mujoco").param_sets
+PARAMS = engine("mujoco").param_sets  # MuJoCo's sets (KEYS: its figures), the engine this section was first written for
 # (scene, simulated duration [s]): each scene's own, nine_mixed_stack cut from 5 s to 2 s
 # (Drake's hydroelastic run of it costs ~7 s per simulated second here, three times over).
 # Measured on 2 busy cores (load ~4.7): 132 s of worker time for all seven (crane_misaligned,
@@ -138,18 +138,20 @@ def _row(s: dict, name: str, params: str, f: dict) -> tuple:
 
 
 def summary(ran: list[dict]) -> str:
-    """One paragraph: the speed-up range and the worst trajectory error per parameter set."""
+    """One paragraph: the speed-up range and the worst trajectory error per engine and parameter set."""
     parts = []
-    for p in PARAMS:
-        figures = [(s["scene"], s["mujoco"][p]) for s in ran if p in s["mujoco"]]
-        if not figures:
-            continue
-        hydro = [f["speedup_vs_hydroelastic"] for _, f in figures]
-        point = [f["speedup_vs_point"] for _, f in figures]
-        scene, worst = max(figures, key=lambda x: -1.0 if x[1]["position_error_max_m"] is None
-                           else x[1]["position_error_max_m"])
-        parts.append(f"MuJoCo ({p}) runs {_range(hydro)}x faster than Drake hydroelastic and "
-                     f"{_range(point)}x faster than Drake point contact; its largest trajectory error "
-                     f"is {_num(worst['position_error_max_m'], 1e3)} mm ({scene})")
-    diverged = [f"{s['scene']} ({p})" for s in ran for p, f in s["mujoco"].items() if f["diverged"]]
+    for e in alternatives():
+        for p in e.param_sets or (None,):
+            figures = [(s["scene"], s[e.name][p]) for s in ran if p in s.get(e.name, {})]
+            if not figures:
+                continue
+            hydro = [f["speedup_vs_hydroelastic"] for _, f in figures]
+            point = [f["speedup_vs_point"] for _, f in figures]
+            scene, worst = max(figures, key=lambda x: -1.0 if x[1]["position_error_max_m"] is None
+                               else x[1]["position_error_max_m"])
+            parts.append(f"{e.label} ({p}) runs {_range(hydro)}x faster than Drake hydroelastic and "
+                         f"{_range(point)}x faster than Drake point contact; its largest trajectory error "
+                         f"is {_num(worst['position_error_max_m'], 1e3)} mm ({scene})")
+    diverged = [f"{s['scene']} ({p})" for s in ran for e in alternatives() for p, f in s.get(e.name, {}).items()
+                if f["diverged"]]
     return "; ".join(parts) + "." + (f" Diverged: {', '.join(diverged)}." if diverged else "")

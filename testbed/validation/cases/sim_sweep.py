@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from testbed.document import Figure, Section, Text, png, pyplot, table
-from testbed.engines import alternatives
+from testbed.engines import alternatives, engine as registered
 from testbed.studies.sim import sweep
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.cases.engine import SECTION_ORDER
@@ -132,8 +132,8 @@ def chart(rows, title="Simulation cost vs accuracy (one curve per engine and con
         if not points:
             continue
         colour = cycle[(scenes.index(scene) if len(scenes) > 1 else i) % len(cycle)]
-        if engine == "mujoco":
-            label, style = f"{scene} MuJoCo {approximation}", STYLES.get(approximation, "s--")
+        if engine != "drake":
+            label, style = f"{scene} {registered(engine).label} {approximation}", STYLES.get(approximation, "s--")
         else:
             label, style = f"{scene} Drake {model} {approximation}", "o-"
         ax.plot([p["ms_per_sim_second"] for p in points], [max(p["deviation_m"], 1e-9) for p in points], style,
