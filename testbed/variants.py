@@ -8,7 +8,6 @@ in the order given; the caller's scenario is never changed. An edit is a callabl
                                observers, viewers): the dynamics alone, for timing;
                                learned=False: the learned loop off too (Drake's own contact)
   keep_effects(names)          only the named effects (the bare scene of a cost study)
-  without(name)                one effect off (e.g. the learned loop, so a twin puts its own back)
   recorders(on)                every RECORDER effect on with its study_config (on) or off
   effects_on(names)            the named effects on with their study_config (a cost study)
   log_contacts(every)          the contact_log recorder on, every `every` steps (None: one
@@ -68,13 +67,6 @@ def keep_effects(names):
         for name in registry():
             if name not in keep and hasattr(s.effects, name):
                 setattr(s.effects, name, None)
-    return edit
-
-
-def without(name: str):
-    """The effect `name` off."""
-    def edit(s):
-        setattr(s.effects, name, None)
     return edit
 
 
@@ -140,18 +132,6 @@ def modulus(value: float | None = None):
     def edit(s):
         if s.effects.contact is not None:
             given = law_modulus(s) if value is None else value
-            s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_modulus=given)
-    return edit
-
-
-def scene_modulus(scenario):
-    """effects.contact.hydroelastic_modulus as `scenario` (the original scene) sets it (None
-    included: the SDF's): undoes a `modulus` edit for an engine judged against the shipped
-    ground truth."""
-    given = scenario.effects.contact.hydroelastic_modulus if scenario.effects.contact is not None else None
-
-    def edit(s):
-        if s.effects.contact is not None and scenario.effects.contact is not None:
             s.effects.contact = dataclasses.replace(s.effects.contact, hydroelastic_modulus=given)
     return edit
 
