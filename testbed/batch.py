@@ -12,10 +12,9 @@ The ratio recorded/bare wall time is what per-step ground-truth logging costs.
 
 from __future__ import annotations
 
-import copy
 from pathlib import Path
 
-from testbed.effects import Role, registry
+from testbed import variants
 from testbed.records import atomic_directory, write_json
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.simulation import run_scenario, write_run
@@ -23,14 +22,7 @@ from testbed.simulation import run_scenario, write_run
 
 def _variant(scenario, *, model: str, recorded: bool):
     """The scene's PHYSICS effects under contact `model`, plus (`recorded`) every RECORDER."""
-    s = copy.deepcopy(scenario)
-    s.effects.contact.model = model
-    for name, cls in registry().items():
-        if cls.role is Role.RECORDER:
-            setattr(s.effects, name, cls.study_config() if recorded else None)
-        elif cls.role is not Role.PHYSICS:
-            setattr(s.effects, name, None)
-    return s
+    return variants.derive(scenario, variants.contact(model), variants.physics_only(), variants.recorders(recorded))
 
 
 def run_all(out_dir, *, duration=None, models=("hydroelastic", "point"), progress=True) -> str:

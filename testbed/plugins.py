@@ -1,8 +1,8 @@
-"""One mechanism for the project's plug-in registries: the effects (testbed/effects/) and
-the validation case kinds (testbed/validation/cases/). A plug-in is one module of the
-package that decorates its class with the registry's `register`; every module of the
-package is imported on the registry's first use, and entries come back sorted by their
-class's `order`, then name.
+"""One mechanism for the project's plug-in registries: the effects (testbed/effects/), the
+validation case kinds (testbed/validation/cases/) and the engines (testbed/engines/: one
+package each). A plug-in is one module (or package) of the package that decorates its class
+with the registry's `register`; every module of the package is imported on the registry's
+first use, and entries come back sorted by their class's `order`, then name.
 """
 
 from __future__ import annotations

@@ -28,6 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
+RECORD_PERIOD = 0.01  # [s] spacing of the recorded (sampled) states of every recorded run and logged scene
+
+
+def steps_per_record(time_step: float, period: float = RECORD_PERIOD) -> int:
+    """Plant steps between records: `period` [s] in whole steps of `time_step` [s] (>= 1)."""
+    return max(1, int(round(period / time_step)))
+
 
 class TableBuilder:
     """Collects per-step column dicts and concatenates them once at the end."""

@@ -195,7 +195,7 @@ def _typed_from_raw(data: dict, source) -> Scenario:
         first = " ".join(str(e).strip().splitlines()[0].split()) if str(e).strip() else type(e).__name__
         raise ScenarioError(source, "", f"does not match the scene schema: {first}") from None
     if scenario.effects.contact is not None:  # keep the dumped plant config truthful
-        _derive_plant(scenario)
+        derive_plant(scenario)
     return scenario
 
 
@@ -372,11 +372,11 @@ def dump_scenario(scenario: Scenario) -> str:
     """
     if scenario.effects.contact is not None:
         scenario = copy.deepcopy(scenario)
-        _derive_plant(scenario)
+        derive_plant(scenario)
     return yaml_dump_typed(scenario)
 
 
-def _derive_plant(scenario: Scenario) -> None:
+def derive_plant(scenario: Scenario) -> None:
     """The plant's copies of the contact effect's model and (resolved) approximation."""
     contact = scenario.effects.contact
     scenario.plant.contact_model = contact.model

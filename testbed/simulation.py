@@ -1,4 +1,18 @@
-"""Runs a built scene and returns its records; writes a run directory on request."""
+"""Runs a built scene: the one sampled-run loop, and the full run with its records.
+
+`advance` is the project's one simulator loop: it advances a simulator through a list of
+sample times, calling `on_sample` at each, and times only the stepping. Its failure
+convention, the same for every caller: anything the simulator or a system raises (Drake's
+solver, a predictor) or a plant state that turns non-finite ends the run at that sample;
+the samples up to then are kept and the returned Failure says what happened (`simulate`
+turns it into a SimulationError, `record_run` into Trajectory.error, the simulation study
+into its row's status). Recorded runs sample every records.RECORD_PERIOD of simulated time.
+
+`record_run` records, for the m free containers of a built scene, every `record_every`
+plant steps: p_WB (m, 3) [m], q_WB (m, 4) (w, x, y, z), V_WB (m, 6) [rad/s, m/s]
+(angular, linear; of the body origin, in W) and the mechanical energy (kinetic + gravity
+potential) [J]; a learned run also keeps its system's cost counters over the timed steps.
+"""
 
 from __future__ import annotations
 
@@ -10,11 +24,110 @@ import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 
 from testbed.builder import BuiltScene, build_scene
-from testbed.errors import SimulationError
+from testbed.errors import SimulationError, TestbedError
 from testbed.progress import progress as progress_bar
 from testbed.records import atomic_directory, save_table, write_json
 from testbed.scenario import Scenario, dump_scenario
 from testbed.watchdog import run_watched
+
+
+@dataclasses.dataclass
+class Failure:
+    """How a run ended early: status 'diverged' (something raised: `kind` is the exception's
+    type name) or 'non-finite' (the plant's positions); message: one line; time [s]."""
+
+    status: str
+    message: str
+    time: float
+    kind: str = ""
+
+    def describe(self) -> str:
+        """'<Type>: <first line>' for a raise, 'non-finite state' for a non-finite state."""
+        return f"{self.kind}: {self.message}" if self.status == "diverged" else "non-finite state"
+
+
+def advance(simulator, times, on_sample, *, positions=None) -> tuple[float, Failure | None]:
+    """The one loop: for each t of `times` [s], AdvanceTo(t), then (while `positions()`, the
+    plant's generalized positions, are finite) on_sample(t). Returns (wall time [s] of the
+    AdvanceTo calls alone, None | Failure); see the module doc for the failure convention.
+    An input error (a TestbedError other than a SimulationError) is not a failure of the
+    run: it propagates."""
+    wall = 0.0
+    for t in times:
+        start = time.perf_counter()
+        try:
+            simulator.AdvanceTo(t)
+        except Exception as e:  # noqa: BLE001 - Drake's solver or a system (a predictor): the run failed
+            wall += time.perf_counter() - start
+            if isinstance(e, TestbedError) and not isinstance(e, SimulationError):
+                raise
+            return wall, Failure("diverged", (str(e).strip().splitlines() or [""])[0],
+                                 simulator.get_context().get_time(), type(e).__name__)
+        wall += time.perf_counter() - start
+        if positions is not None and not np.all(np.isfinite(positions())):
+            return wall, Failure("non-finite", "the state turned non-finite", simulator.get_context().get_time())
+        on_sample(t)
+    return wall, None
+
+
+@dataclasses.dataclass
+class Trajectory:
+    """Recorded states of one run (n records, m free containers; shapes in the module doc)."""
+
+    time: np.ndarray  # (n,) [s]
+    p_WB: np.ndarray  # (n, m, 3)
+    q_WB: np.ndarray  # (n, m, 4)
+    V_WB: np.ndarray  # (n, m, 6)
+    energy: np.ndarray  # (n,) [J]
+    potential: np.ndarray  # (n,) [J]
+    wall_s: float  # wall time of the simulation alone
+    simulated_s: float
+    error: str = ""  # how a failed run ended (Failure.describe), else ""
+    names: tuple = ()
+    # a learned run's LearnedDynamics.costs() over the timed steps (testbed/compare/costs.py); else {}
+    costs: dict = dataclasses.field(default_factory=dict)
+
+
+def start(scene: BuiltScene):
+    """(simulator, context, plant context) of a fresh run of `scene`, initialized."""
+    context = scene.create_context()
+    simulator = Simulator(scene.diagram, context)
+    ApplySimulatorConfig(scene.scenario.simulator, simulator)
+    simulator.Initialize()
+    return simulator, context, scene.plant.GetMyContextFromRoot(context)
+
+
+def record_run(scene: BuiltScene, duration: float, every: int) -> Trajectory:
+    """Simulates a built `scene` for `duration` [s], recording every `every` plant steps
+    (and at t = 0). A failing run ends early with `error` set; its records are kept."""
+    plant = scene.plant
+    simulator, context, plant_context = start(scene)
+    learned = scene.effects.get("learned_dynamics")
+    system = getattr(learned, "system", None)
+    if system is not None:
+        system.reset_costs()  # count only the timed steps below, not the build or Initialize
+    bodies = [scene.bodies[n] for n in scene.free_names]
+    h = plant.time_step()
+    rows = []
+
+    def record(_t=None):
+        poses = [plant.EvalBodyPoseInWorld(plant_context, b) for b in bodies]
+        vels = [plant.EvalBodySpatialVelocityInWorld(plant_context, b) for b in bodies]
+        potential = plant.CalcPotentialEnergy(plant_context)
+        rows.append((context.get_time(), [X.translation() for X in poses],
+                     [X.rotation().ToQuaternion().wxyz() for X in poses],
+                     [np.concatenate([V.rotational(), V.translational()]) for V in vels],
+                     plant.CalcKineticEnergy(plant_context) + potential, potential))
+
+    record()
+    times = [k * every * h for k in range(1, int(round(duration / h)) // every + 1)]
+    wall, failure = advance(simulator, times, record, positions=lambda: plant.GetPositions(plant_context))
+    t, p, q, V, E, PE = zip(*rows)
+    m = len(bodies)
+    return Trajectory(np.array(t), np.array(p).reshape(-1, m, 3), np.array(q).reshape(-1, m, 4),
+                      np.array(V).reshape(-1, m, 6), np.array(E), np.array(PE), wall, t[-1],
+                      failure.describe() if failure else "", tuple(scene.free_names),
+                      system.costs() if system is not None else {})
 
 
 @dataclasses.dataclass
@@ -58,8 +171,9 @@ def _payload(result: RunResult) -> dict:
 
 def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress: bool = False,
                    monitor=None) -> RunResult:
-    """The run loop, in this process. monitor: optional callable(time [s]) run after
-    every simulator step (the watchdog's heartbeat)."""
+    """The full run, in this process: `advance` over up to 200 chunks (the progress bar's
+    ticks). monitor: optional callable(time [s]) run after every simulator step (the
+    watchdog's heartbeat). A Failure raises SimulationError."""
     scenario = scene.scenario
     duration = scenario.duration if duration is None else duration
     context = scene.create_context()
@@ -75,25 +189,21 @@ def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress
 
         bar = progress_bar(total=round(duration, 9), unit="sim s", desc=scenario.name, leave=False,
                    bar_format="{l_bar}{bar}| {n:.2f}/{total:.2f} sim s [{elapsed}<{remaining}]")
-    start = time.perf_counter()
     t0 = context.get_time()
-    for k in range(1, chunks + 1):
-        target = t0 + duration * k / chunks
-        try:
-            simulator.AdvanceTo(target)
-        except RuntimeError as e:
-            if bar is not None:
-                bar.close()
-            first_line = str(e).strip().splitlines()[0]
-            raise SimulationError(
-                f"scene '{scenario.name}': the simulation failed at t = {context.get_time():.4f} s: {first_line}"
-            ) from e
+
+    def tick(target):
         if bar is not None:
             bar.n = round(target - t0, 9)
             bar.refresh()
-    wall = time.perf_counter() - start
+
+    plant_context = scene.plant.GetMyContextFromRoot(context)
+    wall, failure = advance(simulator, [t0 + duration * k / chunks for k in range(1, chunks + 1)], tick,
+                            positions=lambda: scene.plant.GetPositions(plant_context))
     if bar is not None:
         bar.close()
+    if failure is not None:
+        raise SimulationError(f"scene '{scenario.name}': the simulation failed at t = {failure.time:.4f} s: "
+                              f"{failure.message}")
     tables: dict[str, dict] = {}
     for effect in scene.effects.values():
         effect.collect(tables)
@@ -110,11 +220,10 @@ def _simulate_here(scene: BuiltScene, *, duration: float | None = None, progress
         "real_time_factor": duration / wall if wall > 0 else float("inf"),
         "ms_per_sim_second": 1e3 * wall / duration,
         "finite_state": bool(np.all(np.isfinite(context.get_continuous_state_vector().CopyToVector()))
-                             and np.all(np.isfinite(scene.plant.GetPositions(scene.plant.GetMyContextFromRoot(context))))),
+                             and np.all(np.isfinite(scene.plant.GetPositions(plant_context)))),
     }
     for effect in scene.effects.values():
         summary.update(effect.summarize(tables))
-    plant_context = scene.plant.GetMyContextFromRoot(context)
     files = {name: content for effect in scene.effects.values() for name, content in effect.files().items()}
     return RunResult(
         scenario=scenario, tables=tables, summary=summary,

@@ -16,7 +16,8 @@ import testbed.effects.learned_dynamics as learned_dynamics
 from testbed import batch, build_scene, load_scenario
 from testbed.compare.runs import variant
 from testbed.effects import Effect, Role, registry
-from testbed.engines.mujoco import UnsupportedSceneError, check_supported
+from testbed.engines.base import UnsupportedSceneError
+from testbed.engines.mujoco.model import check_supported
 from testbed.errors import ScenarioError
 from testbed.studies.sim import configure
 from testbed.validation.replays import with_recording

@@ -14,8 +14,9 @@ from testbed.scenario import load_scenario
 
 mujoco = pytest.importorskip("mujoco")
 
-from testbed.engines.mujoco import CONTACTS_PER_FACE, UnsupportedSceneError, build_model, mujoco_module, scenario_to_mjcf  # noqa: E402
-from testbed.engines.mujoco_run import simulate_mujoco  # noqa: E402
+from testbed.engines.base import UnsupportedSceneError  # noqa: E402
+from testbed.engines.mujoco.model import CONTACTS_PER_FACE, build_model, mujoco_module, scenario_to_mjcf  # noqa: E402
+from testbed.engines.mujoco.run import simulate_mujoco  # noqa: E402
 
 # A scene with every translated feature: three container types, a COM offset, a rotated
 # pose, an initial spatial velocity, a welded container, friction override.
@@ -174,7 +175,7 @@ def test_contact_rows_point_under_the_load():
 
 def test_wind_matches_the_drake_effect_force():
     """windy_stack: the top container is pushed along +y by the wind effect's force."""
-    from testbed.engines.mujoco_run import wind_force_W
+    from testbed.engines.mujoco.run import wind_force_W
 
     scenario = load_scenario("windy_stack")
     wind = scenario.effects.wind
@@ -254,7 +255,9 @@ def test_compare_engine_mujoco_writes_the_learned_compare_keys(tmp_path):
     from testbed.cli import main
     from testbed.compare.metrics import compare_figures
     from testbed.compare.runs import run_variant, variant
-    from testbed.engines.mujoco_compare import MUJOCO_KEYS, SatDepth
+    from testbed.engines.comparison import SatDepth, keys_for
+
+    MUJOCO_KEYS = keys_for("mujoco")
 
     out = tmp_path / "cmp"
     assert main(["compare", "two_stack", "--engine", "mujoco", "--duration", "0.05", "--no-replay", "--out", str(out)]) == 0
@@ -300,8 +303,11 @@ effects: {contact: {}, friction: {}}
 
 
 def test_sampled_run_has_the_simulation_study_keys():
-    from testbed.engines.mujoco_run import sampled_run_mujoco
-    from testbed.studies.sim import configure, sampled_run, summarize_run
+    from testbed.engines import engine
+    from testbed.studies.sim import configure, engine_sampled_run, sampled_run, summarize_run
+
+    def sampled_run_mujoco(scenario):
+        return engine_sampled_run(engine("mujoco"), scenario)
 
     base = load_scenario("two_stack")
     kw = dict(model="hydroelastic_with_fallback", approximation="sap", time_step=2e-3, duration=0.06)

@@ -1,6 +1,6 @@
 """MuJoCo's matched contact against Drake's discrete contact, run side by side: the one-step
 map of the contact mode, the scene's contact overrides, and the scenes where they part
-(testbed/engines/mujoco.py, module docstring)."""
+(testbed/engines/mujoco/model.py, module docstring)."""
 
 import math
 
@@ -12,14 +12,14 @@ from testbed.scenario import load_scenario
 
 pytest.importorskip("mujoco")
 
-from testbed.engines.mujoco import build_model  # noqa: E402
-from testbed.engines.mujoco_run import simulate_mujoco  # noqa: E402
+from testbed.engines.mujoco.model import build_model  # noqa: E402
+from testbed.engines.mujoco.run import simulate_mujoco  # noqa: E402
 
 
 def _drake_steps(scenario, duration):
     """(n + 1, m, 3) [m] Drake's p_WB at every step of `duration` [s] (recorders dropped)."""
     from testbed.compare.runs import run_variant
-    from testbed.engines.mujoco_compare import engine_variant
+    from testbed.engines.comparison import engine_variant
 
     return run_variant(engine_variant(scenario, "truth"), duration, 1).p_WB
 
@@ -41,7 +41,7 @@ def test_matched_contact_steps_like_drakes_implicit_step(overrides, floored):
     """A 20 t box released at zero penetration onto the quay: the vertical contact mode's
     one-step map. Drake's discrete contact is implicit Euler (det 1/D, D = 1 + h^2 k/m + h c/m);
     the matched MuJoCo rows reproduce its eigenvalues (module docstring)."""
-    from testbed.engines.mujoco import drake_step_factor
+    from testbed.engines.mujoco.model import drake_step_factor
 
     scenario = load_scenario("defaults", overrides=overrides)
     drake = _step_map_roots(_drake_steps(scenario, 0.1)[:, 0, 2])

@@ -22,7 +22,8 @@ from pydrake.systems.framework import DiagramBuilder
 from testbed import model_loading
 from testbed.calibration.data import CUBE_INERTIA, CUBE_MASS, CUBE_WIDTH, TABLE_HEIGHT, Toss
 from testbed.calibration.initial_state import first_frame, initial_state
-from testbed.errors import TestbedError
+from testbed.errors import SimulationError, TestbedError
+from testbed.simulation import advance
 
 MODELS = ("point", "hydroelastic")
 APPROXIMATIONS = ("sap", "similar", "lagged", "tamsi")
@@ -85,7 +86,7 @@ class TossResult:
     toss_id: int
     position_error: float  # mean over frames of |p_data - p_sim| / CUBE_WIDTH
     rotation_error_deg: float  # mean over frames of angle(R_data^T R_sim) [deg]
-    failed: bool  # the solver failed; errors are FAILED_TOSS_ERROR / NaN
+    failed: bool  # the rollout failed (testbed.simulation's convention); errors are FAILED_TOSS_ERROR / NaN
 
 
 def initial_velocity(toss: Toss) -> tuple[np.ndarray, np.ndarray]:
@@ -133,7 +134,8 @@ class TossSimulator:
     def rollout(self, toss: Toss, initial: str = "first-frame") -> tuple[np.ndarray, np.ndarray]:
         """(p_WB (n, 3) [m], q_WB (n, 4) w,x,y,z) simulated at the toss's frame times from the
         state at t = 0 that `initial` names (initial_state.INITIAL_STATES; the published
-        protocol is "first-frame"). Raises RuntimeError if Drake's solver fails."""
+        protocol is "first-frame"), through the one sampled-run loop (testbed.simulation.advance).
+        Raises SimulationError (a RuntimeError) when the run fails (the solver, a non-finite state)."""
         self.context.SetTime(0.0)
         R_WB, p_WB, w, v = initial_state(toss, initial, self.params.table_height)
         self.plant.SetFreeBodyPose(self.plant_context, self.body, RigidTransform(R_WB, p_WB))
@@ -141,12 +143,20 @@ class TossSimulator:
         self.simulator.Initialize()
         p = np.empty((len(toss), 3))
         q = np.empty((len(toss), 4))
-        for k, t in enumerate(toss.t):
-            if k:
-                self.simulator.AdvanceTo(float(t))
+        frames = iter(range(len(toss)))
+
+        def record(_t=None):
+            k = next(frames)
             X = self.plant.EvalBodyPoseInWorld(self.plant_context, self.body)
             p[k] = X.translation()
             q[k] = X.rotation().ToQuaternion().wxyz()
+
+        record()
+        _, failure = advance(self.simulator, [float(t) for t in toss.t[1:]], record,
+                             positions=lambda: self.plant.GetPositions(self.plant_context))
+        if failure is not None:
+            raise SimulationError(f"toss {toss.toss_id}: the rollout failed at t = {failure.time:.4f} s: "
+                                  f"{failure.describe()}")
         return p, q
 
     def evaluate(self, toss: Toss, initial: str = "first-frame") -> TossResult:

@@ -1,5 +1,5 @@
-"""`testbed compare SCENE`: the twin run (Drake's contact vs the learned closed loop, or
-MuJoCo), judged by the closed-loop gates of `testbed validate`.
+"""`testbed compare SCENE`: the twin run (Drake's contact vs the learned closed loop, or any
+other registered engine: testbed/engines), judged by the closed-loop gates of `testbed validate`.
 
 Exit status: 0 when every gate holds (or the learned model made no contact decision, so
 there is nothing to judge), 3 when a gate fails or the learned run diverged
@@ -13,6 +13,7 @@ from pathlib import Path
 from learned_contact import sources
 from testbed.commands import timestamp
 from testbed.containers import HYDROELASTIC_MODULUS
+from testbed.engines import candidates
 from testbed.errors import ScenarioError, TestbedError
 
 NAME = "compare"
@@ -31,22 +32,33 @@ def add_arguments(parser) -> None:
     parser.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="override a scene field, as `testbed run --set` (e.g. --set containers[1].mass=5000)")
     parser.add_argument("--no-replay", action="store_true", help="skip the Meshcat ghost replay (replay.html)")
-    parser.add_argument("--engine", choices=("learned", "mujoco", "all"), default="learned",
-                        help="what runs beside Drake: the learned closed loop (default), MuJoCo, or all: Drake point, "
-                             "the learned loop and MuJoCo in one table against one Drake run at the learned law's "
-                             "modulus (testbed/engines/three_way.py)")
-    parser.add_argument("--params", choices=("matched", "default"), default=None,
-                        help="MuJoCo's contact parameters (only with --engine mujoco or all): matched to Drake "
-                             "(default) or MuJoCo's defaults")
+    engines = candidates()  # the registered engines besides Drake's truth (testbed/engines)
+    with_params = [e for e in engines.values() if e.param_sets]
+    parser.add_argument("--engine", choices=(*engines, "all"), default="learned",
+                        help="what runs beside Drake: the learned closed loop (default), another engine ("
+                             f"{', '.join(e.label for e in engines.values() if not e.gated)}), or all: Drake point, "
+                             "the learned loop and every other engine in one table against one Drake run at the "
+                             "learned law's modulus (testbed/engines/three_way.py)")
+    parser.add_argument("--params", choices=list(dict.fromkeys(p for e in with_params for p in e.param_sets)), default=None,
+                        help="the engine's contact parameters (only with --engine "
+                             f"{' or '.join(e.name for e in with_params)} or all): "
+                             + "; ".join(f"{e.label}: {', '.join(e.param_sets)} (default {e.param_sets[0]})"
+                                         for e in with_params))
 
 
 def check_options(args) -> None:
     """Refuses options that do not apply to the chosen engine (TestbedError: exit 2)."""
-    if args.engine == "mujoco" and args.predictor is not None:
-        raise TestbedError("--predictor does not apply with --engine mujoco (MuJoCo uses its own contact, no predictor)")
-    if args.engine == "learned" and args.params is not None:
-        raise TestbedError("--params applies only with --engine mujoco or all (the learned loop has no MuJoCo "
-                           "parameters)")
+    chosen = candidates().get(args.engine)
+    if chosen is not None and not chosen.gated and args.predictor is not None:
+        raise TestbedError(f"--predictor does not apply with --engine {args.engine} ({chosen.label} uses its own "
+                           "contact, no predictor)")
+    if chosen is not None and not chosen.param_sets and args.params is not None:
+        names = " or ".join(n for n, e in candidates().items() if e.param_sets)
+        raise TestbedError(f"--params applies only with --engine {names} or all (the {chosen.label} engine has no "
+                           "contact-parameter sets)")
+    if chosen is not None and args.params is not None and args.params not in chosen.param_sets:
+        raise TestbedError(f"--params {args.params}: expected one of {', '.join(chosen.param_sets)} for --engine "
+                           f"{args.engine}")
     if args.duration is not None and not args.duration > 0:
         raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
 
@@ -60,16 +72,18 @@ def run(args) -> int:
     path = resolve_scene_path(args.scene)
     scenario = load_scenario(path, overrides=args.set or [])
     source = source_label(path, args.set)
-    if args.engine == "mujoco":  # testbed/engines/mujoco_compare.py (H-mujoco)
-        from testbed.engines.mujoco_compare import compare_mujoco, format_mujoco_figures
+    chosen = candidates().get(args.engine)
+    if chosen is not None and not chosen.gated:  # another engine against Drake: testbed/engines/comparison.py
+        from testbed.engines.comparison import compare_engine, format_engine_figures
 
-        params = args.params or "matched"
-        out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-mujoco-{params}-{timestamp()}"
-        print(format_mujoco_figures(compare_mujoco(scenario, params=params, out_dir=out, duration=args.duration,
-                                                   replay=not args.no_replay, source=source)))
+        params = args.params or (chosen.param_sets[0] if chosen.param_sets else None)
+        tag = f"{chosen.name}-{params}" if params else chosen.name
+        out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{tag}-{timestamp()}"
+        print(format_engine_figures(compare_engine(scenario, chosen.name, params=params, out_dir=out,
+                                                   duration=args.duration, replay=not args.no_replay, source=source)))
         print(f"  output: {out}")
-        print("verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts MuJoCo "
-              "beside it against the same Drake run)")
+        print(f"verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts "
+              f"{chosen.label} beside it against the same Drake run)")
         return 0
     declared = scenario.effects.learned_dynamics
     predictor = args.predictor or (declared.predictor if declared is not None else "improved")

@@ -1,6 +1,6 @@
 """Figures of a twin run: how far the learned trajectory strays from the truth's.
 
-Inputs are runs.Trajectory records on the same time grid (the learned run may end
+Inputs are testbed.simulation.Trajectory records on the same time grid (the learned run may end
 early when it failed). Positions are of the body origins (the containers' geometric
 centres) [m]; angles are the rotation between the two runs' orientations [deg].
 """

@@ -12,10 +12,8 @@ from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
 from testbed.errors import TestbedError
 from testbed.learned_force_law import law_modulus
-from testbed.records import atomic_directory, write_json
+from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
-
-RECORD_PERIOD = 0.01  # [s] default spacing of the recorded states
 
 
 def _load(scene, source=None):
@@ -57,7 +55,7 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
     if not duration > 0:
         raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
     h = scenario.plant.time_step
-    every = record_every or max(1, int(round(RECORD_PERIOD / h)))
+    every = record_every or steps_per_record(h)
     learned = [build_scene(variant(scenario, "learned", p), source) for p in predictors]
     truth_scene = build_scene(variant(scenario, "truth"), source)
     point_scene = build_scene(variant(scenario, "point"), source) if with_point else None

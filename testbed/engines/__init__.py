@@ -1,14 +1,43 @@
-"""Other simulators run on the testbed's scenes, judged against Drake's ground truth.
+"""Registry of engines: the simulators that run the testbed's scenes (testbed/engines/base.py).
 
-One module per engine; none is imported by `import testbed` (each imports its engine's
-package only when called, and reports a missing one with the install command).
+Adding an engine = one package here whose `__init__` registers an Engine subclass with
+`register`. Registered: `drake` (the ground truth: its contact models) and `learned` (the
+learned closed loop, a Drake variant) in drake/, `mujoco` in mujoco/. Every package is
+imported on the registry's first use; none imports its simulator's package until it runs.
 
-  mujoco.py          Scenario -> MJCF -> MjModel, with MuJoCo's default contact
-                     parameters or a set matched to Drake's hydroelastic contact
-  mujoco_run.py      simulate_mujoco: steps a translated scene, records the Drake-shaped
-                     `steps` and per-pair `contacts` tables and the wall time;
-                     sampled_run_mujoco: the simulation study's sampled_run for MuJoCo
-  mujoco_crane.py    the crane effect's ropes and twistlocks as MuJoCo applied forces
-  mujoco_compare.py  compare_mujoco (`testbed compare SCENE --engine mujoco`) and
-                     engine_table_row (Drake once, both MuJoCo sets: the validate table)
+Beside the packages: comparison.py (any engine against Drake's truth: `testbed compare
+SCENE --engine NAME` and the engine case kind's row) and three_way.py (`--engine all`).
 """
+
+from testbed.engines.base import Engine, EngineRun, UnsupportedSceneError
+from testbed.errors import UnknownChoiceError
+from testbed.plugins import PackageRegistry
+
+_REGISTRY = PackageRegistry(__name__, __path__, "engine", instantiate=True, skip=("base", "comparison", "three_way"))
+register = _REGISTRY.register
+
+
+def engines() -> dict[str, Engine]:
+    """All engines by name (instances), in registry order."""
+    return _REGISTRY.entries()
+
+
+def engine(name: str) -> Engine:
+    """The engine `name`, or UnknownChoiceError naming the registered ones."""
+    found = engines()
+    if name not in found:
+        raise UnknownChoiceError("engine", name, found)
+    return found[name]
+
+
+def candidates() -> dict[str, Engine]:
+    """The engines judged against the reference (every one but Drake's truth), in order."""
+    return {name: e for name, e in engines().items() if not e.reference}
+
+
+def alternatives() -> list[Engine]:
+    """The whole-simulator alternatives: every candidate but the gated learned loop (MuJoCo)."""
+    return [e for e in candidates().values() if not e.gated]
+
+
+__all__ = ["Engine", "EngineRun", "UnsupportedSceneError", "alternatives", "candidates", "engine", "engines", "register"]

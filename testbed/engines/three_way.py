@@ -6,25 +6,22 @@ figures are errors against different truths. Here the scene is first set to the 
 law's modulus (effects.contact.hydroelastic_modulus = law_modulus), then ONE Drake
 hydroelastic run at that modulus is the reference for three candidates from the same
 initial state: Drake point contact, the learned closed loop (the twin run of
-testbed/compare, gated as usual) and MuJoCo with contact parameters matched to that
-same Drake (testbed/engines/mujoco.py follows the scene's modulus).
+testbed/compare, gated as usual) and every other registered engine (testbed/engines:
+MuJoCo, with contact parameters matched to that same Drake: its model.py follows the
+scene's modulus).
 
 Every row's figures come from testbed.compare.metrics.compare_figures against that one
 truth run, with the separating-axis depth (SatDepth) for the penetration of all three;
 wall times are per simulated second [s], measured in this one process.
+Adding an engine adds its row here (testbed.engines.alternatives).
 """
 
 from __future__ import annotations
 
-import copy
-import dataclasses
-
+from testbed import variants
 from testbed.compare.metrics import compare_figures
-from testbed.compare.runs import variant
-from testbed.engines.mujoco import check_supported
-from testbed.engines.mujoco_compare import SatDepth, trajectory_of
-from testbed.engines.mujoco_run import simulate_mujoco
-from testbed.learned_force_law import law_modulus
+from testbed.engines import alternatives
+from testbed.engines.comparison import SatDepth, engine_variant
 
 # the figures of each row (compare_figures' keys; lengths [m], angles [deg], energies [J])
 ROW_KEYS = ("diverged", "simulated_s_learned", "position_error_max_m", "final_position_error_max_m",
@@ -34,41 +31,44 @@ ROW_KEYS = ("diverged", "simulated_s_learned", "position_error_max_m", "final_po
 def at_law_modulus(scenario):
     """A copy of `scenario` whose containers are at the learned law's modulus
     (effects.contact.hydroelastic_modulus set), for every engine alike."""
-    out = copy.deepcopy(scenario)
-    if out.effects.contact is not None:
-        out.effects.contact = dataclasses.replace(out.effects.contact, hydroelastic_modulus=law_modulus(scenario))
-    return out
+    return variants.derive(scenario, variants.modulus(None))
 
 
 def check_three_way(scenario) -> None:
-    """Raises UnsupportedSceneError before anything runs when MuJoCo cannot run the scene."""
-    check_supported(variant(scenario, "truth"))
+    """Raises UnsupportedSceneError before anything runs when an engine cannot run the scene."""
+    ground = engine_variant(scenario, "truth")
+    for e in alternatives():
+        e.check(ground)
 
 
 def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
-    """compare.json's `three_way`: {'reference', 'hydroelastic_modulus_Pa', 'rows': [{'model',
-    ROW_KEYS (simulated_s_learned as 'simulated_s'), 'wall_per_sim_s', 'speedup_vs_truth'}]}
-    for Drake point, the learned loop and MuJoCo (`params`) against runs['truth'].
+    """compare.json's `three_way`: {'reference', 'hydroelastic_modulus_Pa', 'wall_per_sim_s_truth',
+    '<engine>_version', 'rows': [{'model', ROW_KEYS (simulated_s_learned as 'simulated_s'),
+    'wall_per_sim_s', 'speedup_vs_truth'}]} for Drake point, the learned loop and every other
+    engine (`params` where it has that set) against runs['truth'].
     scenario: at the law's modulus (at_law_modulus); figures: the learned twin run's;
     runs: its trajectories ('truth', 'learned', 'point')."""
     h = scenario.plant.time_step
     every = max(1, int(round(figures["record_period_s"] / h)))
-    mj = simulate_mujoco(variant(scenario, "truth"), duration=figures["duration_s"], params=params)
-    mujoco = trajectory_of(mj, every)
     truth = runs["truth"]
     truth_wall = truth.wall_s / max(truth.simulated_s, 1e-12)
+    candidates_ = [("Drake point", runs["point"], None), (f"learned ({figures['predictor']})", runs["learned"], None)]
+    versions, ground = {}, engine_variant(scenario, "truth")  # = the twins' truth: the scene is at the law's modulus
+    for e in alternatives():
+        chosen = params if params in e.param_sets else (e.param_sets[0] if e.param_sets else None)
+        run = e.run(ground, duration=figures["duration_s"], record_every=every, params=chosen)
+        versions[f"{e.name}_version"] = run.summary.get("version", "")
+        candidates_.append((f"{e.label} ({chosen})" if chosen else e.label, run.trajectory, run.summary["wall_per_sim_s"]))
     out = []
-    candidates = (("Drake point", runs["point"]), (f"learned ({figures['predictor']})", runs["learned"]),
-                  (f"MuJoCo ({params})", mujoco))
-    for name, traj in candidates:
+    for name, traj, wall in candidates_:
         f = compare_figures(truth, traj, scenario.containers, SatDepth())
-        wall = mj.summary["wall_per_sim_s"] if traj is mujoco else traj.wall_s / max(traj.simulated_s, 1e-12)
+        wall = traj.wall_s / max(traj.simulated_s, 1e-12) if wall is None else wall
         row = {"model": name, **{k.replace("_learned", ""): f[k] for k in ROW_KEYS}}
         row.update(wall_per_sim_s=wall, speedup_vs_truth=truth_wall / wall)
         out.append(row)
     return {"reference": f"Drake hydroelastic at {figures['hydroelastic_modulus_Pa']:.0e} Pa (one run)",
             "hydroelastic_modulus_Pa": figures["hydroelastic_modulus_Pa"], "wall_per_sim_s_truth": truth_wall,
-            "mujoco_version": mj.summary["mujoco_version"], "rows": out}
+            **versions, "rows": out}
 
 
 def format_table(three: dict) -> list[str]:

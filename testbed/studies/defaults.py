@@ -35,13 +35,13 @@ import math
 import multiprocessing
 import time
 
+from testbed import variants
 from testbed.calibration.data import load_tosses
 from testbed.calibration.evaluate import RolloutPool, summarize as toss_summary
 from testbed.calibration.params_file import from_fragment
 from testbed.calibration.split import train_test_split
 from testbed.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
-from testbed.effects import registry
 from testbed.effects.learned_dynamics import LearnedDynamicsConfig
 from testbed.errors import SimulationError
 from testbed.learned_force_law import pressure_stiffness, stability_numbers
@@ -106,22 +106,16 @@ def make_case(name: str, setting: Setting, duration: float | None = None):
         case = stability.near_parallel(1e-2, **kw)
     elif name in SCENE_CASES:
         resting, bound = SCENE_CASES[name]
-        s = load_scenario(name)
-        s.plant.time_step = setting.time_step
-        s.effects.contact.approximation = s.plant.discrete_contact_approximation = setting.approximation
-        if s.effects.contact_log is None:
-            s.effects.contact_log = registry()["contact_log"].Config()
+        s = variants.derive(load_scenario(name), variants.timing(time_step=setting.time_step),
+                            variants.contact(approximation=setting.approximation), variants.log_contacts(keep=True))
         case = stability.StressCase(name, s, max_penetration=bound, resting=resting)
     elif name == "resting_pair":  # a 20 t box settled on a fixed one: the drift/force-balance probe of the tests
         case = stability.near_parallel(0.0, **kw)
         case.scenario.containers[1].V_WC = [0.0] * 6
     else:
         case = stability.CASES[name](**kw)
-    case.scenario.plant.stiction_tolerance = setting.stiction_tolerance
-    case.scenario.effects.contact.hydroelastic_margin = setting.margin
-    case.scenario.effects.contact.hydroelastic_modulus = setting.modulus
-    if duration is not None:
-        case.scenario.duration = duration
+    case.scenario = variants.derive(case.scenario, variants.timing(duration=duration), variants.contact_params(
+        margin=setting.margin, modulus=setting.modulus, stiction_tolerance=setting.stiction_tolerance))
     return case
 
 

@@ -10,102 +10,93 @@ and drops its recorders, observers and viewers. `effect_costs` measures what eac
 effect costs: wall time with one effect switched on against the bare scene (its
 `default_on` effects), the two runs made side by side in one process.
 
-Trajectories are sampled every `SAMPLE_PERIOD` by advancing the simulator to each
-sample time (no logging system is added, so the timing is the bare simulation's).
+Trajectories are sampled every RECORD_PERIOD (testbed.simulation) by the one sampled-run
+loop, `advance` (no logging system is added, so the timing is the bare simulation's).
 
-MuJoCo curves (`engines` containing "mujoco"): the same scene simulated by MuJoCo
-(testbed/engines, both contact parameter sets) over the same time-step sweep, its
-deviation measured against the fine-step Drake reference of the scene's own contact
-model (the ground truth), so that both engines' curves sit on one chart.
+Other engines' curves (`engines` naming registered engines besides "drake": testbed/engines,
+e.g. MuJoCo with both its contact-parameter sets): the same scene simulated by that engine
+over the same time-step sweep, its deviation measured against the fine-step Drake reference
+of the scene's own contact model (the ground truth), so that every engine's curves sit on
+one chart.
 """
-
-import copy
-import time
 
 import numpy as np
 
+from testbed import variants
 from testbed.builder import build_scene
 from testbed.contact_extraction import near_distances
-from testbed.effects import Role, registry
-from testbed.effects.contact import drake_approximation
-from testbed.engines.mujoco import check_supported, mujoco_module
-from testbed.engines.mujoco_run import sampled_run_mujoco
+from testbed.effects import registry
+from testbed.engines import engines as registered_engines
 from testbed.errors import OptionalDependencyError, TestbedError
 from testbed.progress import progress as progress_bar
+from testbed.records import RECORD_PERIOD, steps_per_record
 from testbed.scenario import Scenario, load_scenario
-from testbed.simulation import simulate
+from testbed.simulation import advance, simulate, start
 
-SAMPLE_PERIOD = 0.01  # [s] trajectory sample spacing for deviations
-MUJOCO_TIMING_REPEATS = 3  # MuJoCo sweep points: the fastest of this many identical runs is timed
+TIMING_REPEATS = 3  # other engines' sweep points: the fastest of this many identical runs is timed (ms each)
 
 
 def configure(scenario: Scenario, *, model: str, approximation: str, time_step: float,
               duration: float, keep_effects=None) -> Scenario:
     """A copy of `scenario` with the given contact settings and only `keep_effects`
     (names; None: every PHYSICS effect the scene declares)."""
-    s = copy.deepcopy(scenario)
-    s.duration = duration
-    s.plant.time_step = time_step
-    for name, cls in registry().items():
-        if (cls.role is not Role.PHYSICS) if keep_effects is None else (name not in keep_effects):
-            setattr(s.effects, name, None)
-    s.effects.contact.model = model
-    s.effects.contact.approximation = approximation
-    s.plant.contact_model = model
-    s.plant.discrete_contact_approximation = drake_approximation(approximation, model)
-    return s
+    keep = variants.physics_only() if keep_effects is None else variants.keep_effects(keep_effects)
+    return variants.derive(scenario, variants.timing(time_step=time_step, duration=duration), keep,
+                           variants.contact(model, approximation))
 
 
 def sampled_run(scenario: Scenario) -> dict:
-    """Simulates, sampling positions, penetration and energy every SAMPLE_PERIOD.
+    """Simulates, sampling positions, penetration and energy every RECORD_PERIOD.
 
     Returns {'wall_s', 'ms_per_sim_second', 'times' (k,), 'p_WB' (k, m, 3) free-body
     origins [m], 'min_phi' (k,) [m] smallest signed distance among near pairs,
     'energy' (k,) [J], 'status': 'ok' | 'diverged' | 'non-finite', 'failure': str}.
     Sampling work is excluded from the wall time.
     """
-    from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
-
     scene = build_scene(scenario)
     plant = scene.plant
-    context = scene.create_context()
-    plant_context = plant.GetMyContextFromRoot(context)
-    simulator = Simulator(scene.diagram, context)
-    ApplySimulatorConfig(scenario.simulator, simulator)
-    simulator.Initialize()
+    simulator, _, plant_context = start(scene)
     free = [scene.bodies[n] for n in scene.free_names]
-    times = np.arange(0.0, scenario.duration + 1e-12, SAMPLE_PERIOD)
     samples = {"times": [], "p_WB": [], "min_phi": [], "energy": []}
-    wall, status, failure = 0.0, "ok", ""
-    for t in times:
-        start = time.perf_counter()
-        try:
-            simulator.AdvanceTo(t)
-        except RuntimeError as e:
-            status, failure = "diverged", str(e).strip().splitlines()[0]
-            break
-        wall += time.perf_counter() - start
-        q = plant.GetPositions(plant_context)
-        if not np.all(np.isfinite(q)):
-            status = "non-finite"
-            break
+
+    def sample(t):
         samples["times"].append(t)
         samples["p_WB"].append([plant.EvalBodyPoseInWorld(plant_context, b).translation() for b in free])
         query = plant.get_geometry_query_input_port().Eval(plant_context)
         distances = list(near_distances(query).values())  # closed form: bounded time when boxes slide
         samples["min_phi"].append(min(distances) if distances else np.inf)
         samples["energy"].append(plant.EvalKineticEnergy(plant_context) + plant.EvalPotentialEnergy(plant_context))
+
+    times = np.arange(0.0, scenario.duration + 1e-12, RECORD_PERIOD)
+    wall, failure = advance(simulator, times, sample, positions=lambda: plant.GetPositions(plant_context))
     out = {k: np.asarray(v, dtype=float) for k, v in samples.items()}
     simulated = out["times"][-1] if len(out["times"]) else 0.0
-    out.update(wall_s=wall, status=status, failure=failure,
+    out.update(wall_s=wall, status=failure.status if failure else "ok", failure=failure.message if failure else "",
                ms_per_sim_second=1e3 * wall / simulated if simulated > 0 else float("nan"))
     return out
+
+
+def engine_sampled_run(engine, scenario: Scenario, params: str | None = None) -> dict:
+    """sampled_run's keys for a registered `engine` (testbed/engines) other than Drake's
+    truth: its run recorded every RECORD_PERIOD in whole steps, 'min_phi' from its contact
+    rows, status 'ok' | 'diverged' (the run's error is 'failure'), the wall time its own.
+    Time step and duration are the scenario's (`configure` sets them)."""
+    h = scenario.plant.time_step
+    run = engine.run(scenario, record_every=steps_per_record(h), params=params, contacts=True)
+    traj, contacts = run.trajectory, run.contacts
+    steps = np.rint(traj.time / h).astype(int)
+    min_phi = np.full(int(max(steps.max(initial=0), contacts["step"].max(initial=0))) + 1, np.inf)
+    np.minimum.at(min_phi, contacts["step"], contacts["phi"])
+    simulated = traj.simulated_s
+    return {"times": traj.time, "p_WB": traj.p_WB, "min_phi": min_phi[steps], "energy": traj.energy,
+            "wall_s": traj.wall_s, "ms_per_sim_second": 1e3 * traj.wall_s / simulated if simulated > 0 else float("nan"),
+            "status": "diverged" if traj.error else "ok", "failure": traj.error}
 
 
 def deviation(run: dict, reference: dict) -> float:
     """RMS over common samples and bodies of the position difference [m] (inf if diverged).
     Samples are matched by time: a run sampled on another grid (MuJoCo keeps every
-    round(SAMPLE_PERIOD / h)-th step) is interpolated linearly onto the reference's times
+    round(RECORD_PERIOD / h)-th step) is interpolated linearly onto the reference's times
     within its own time span."""
     if run["status"] != "ok" or len(run["times"]) == 0 or len(reference["times"]) == 0:
         return float("inf")
@@ -135,17 +126,19 @@ def summarize_run(run: dict, reference: dict | None) -> dict:
 
 
 def sweep(scene: str, *, models, approximations, time_steps, reference_step: float, duration: float,
-          progress: bool = False, engines=("drake",), mujoco_params=("matched", "default")) -> list[dict]:
+          progress: bool = False, engines=("drake",), params=None) -> list[dict]:
     """Runs the grid; each row is one (engine, model, approximation, time_step) with its figures.
 
-    engines: "drake" sweeps every (model, approximation) against its own fine-step
-    reference; "mujoco" sweeps MuJoCo with each of `mujoco_params` (rows: model "mujoco",
-    approximation = the parameter set) against the fine-step Drake reference of the
-    scene's own contact model and approximation. A MuJoCo that is not installed or a
-    scene it cannot translate gives rows with status "unavailable: <why>"."""
-    unknown = set(engines) - {"drake", "mujoco"}
+    engines: names of registered engines (testbed/engines). "drake" sweeps every (model,
+    approximation) against its own fine-step reference; any other sweeps that engine with
+    each of `params` (None: its param_sets; rows: model = the engine's name, approximation
+    = the parameter set) against the fine-step Drake reference of the scene's own contact
+    model and approximation. An engine that is not installed or a scene it cannot
+    translate gives rows with status "unavailable: <why>"."""
+    known = registered_engines()
+    unknown = set(engines) - set(known)
     if unknown:
-        raise TestbedError(f"engines: unknown {sorted(unknown)}; expected 'drake' and/or 'mujoco'")
+        raise TestbedError(f"engines: unknown {sorted(unknown)}; expected some of: {', '.join(known)}")
     base = load_scenario(scene)
     rows, references = [], {}
 
@@ -166,35 +159,38 @@ def sweep(scene: str, *, models, approximations, time_steps, reference_step: flo
             run = sampled_run(configure(base, model=model, approximation=approximation, time_step=h, duration=duration))
             rows.append({"scene": scene, "engine": "drake", "model": model, "approximation": approximation,
                          "time_step": h, "reference_step": reference_step, **summarize_run(run, reference)})
-    if "mujoco" in engines:
-        rows += _mujoco_rows(base, scene, time_steps, duration, reference_step, mujoco_params, reference_of)
+    for name, engine in known.items():
+        if name in engines and not engine.reference:
+            rows += _engine_rows(engine, base, scene, time_steps, duration, reference_step, params, reference_of)
     return rows
 
 
-def _mujoco_rows(base, scene, time_steps, duration, reference_step, params_sets, reference_of) -> list[dict]:
-    """The MuJoCo sweep rows (see sweep); the reference is Drake's, of the scene's own model."""
+def _engine_rows(engine, base, scene, time_steps, duration, reference_step, params, reference_of) -> list[dict]:
+    """One engine's sweep rows (see sweep); the reference is Drake's, of the scene's own model."""
     model, approximation = base.effects.contact.model, base.effects.contact.approximation
-    head = {"scene": scene, "engine": "mujoco", "model": "mujoco", "reference_step": reference_step,
+    params_sets = params or engine.param_sets or (None,)
+    head = {"scene": scene, "engine": engine.name, "model": engine.name, "reference_step": reference_step,
             "reference": f"drake {model} {approximation} h={reference_step:g}"}
     try:
-        mujoco_module()
-        check_supported(base)
+        why = engine.unavailable()
+        if why is None:
+            engine.check(base)
     except (ImportError, OptionalDependencyError, ValueError) as e:  # UnsupportedSceneError is a ValueError
         why = str(e).strip().splitlines()[0]
+    if why is not None:
         return [{**head, "approximation": p, "time_step": h, "status": f"unavailable: {why}", "failure": why,
                  "ms_per_sim_second": float("nan"), "deviation_m": float("nan"), "max_penetration_m": float("nan"),
                  "energy_gain_J": float("nan"), "energy_drift_J": float("nan")}
                 for p in params_sets for h in time_steps]
     reference = reference_of(model, approximation)
     rows = []
-    for params in params_sets:
+    for p in params_sets:
         for h in time_steps:
             s = configure(base, model=model, approximation=approximation, time_step=h, duration=duration)
-            # MuJoCo runs last milliseconds, so one preemption on a shared machine can triple
-            # the time: the fastest of MUJOCO_TIMING_REPEATS identical (deterministic) runs is kept.
-            run = min((sampled_run_mujoco(s, params=params, sample_period=SAMPLE_PERIOD)
-                       for _ in range(MUJOCO_TIMING_REPEATS)), key=lambda r: r["wall_s"])
-            rows.append({**head, "approximation": params, "time_step": h, **summarize_run(run, reference)})
+            # a run of another engine lasts milliseconds, so one preemption on a shared machine can
+            # triple the time: the fastest of TIMING_REPEATS identical (deterministic) runs is kept.
+            run = min((engine_sampled_run(engine, s, p) for _ in range(TIMING_REPEATS)), key=lambda r: r["wall_s"])
+            rows.append({**head, "approximation": p, "time_step": h, **summarize_run(run, reference)})
     return rows
 
 
@@ -220,10 +216,8 @@ def effect_costs(scene: str, *, effects=None, duration: float = 0.5, repeats: in
             rows.append({"effect": name, "status": "not available"})
             continue
         cls = registry()[name]
-        variant = copy.deepcopy(bare)
-        needed = [n for n in cls.requires if getattr(variant.effects, n) is None]
-        for n in needed + [name]:
-            setattr(variant.effects, n, registry()[n].study_config())
+        needed = [n for n in cls.requires if getattr(bare.effects, n) is None]
+        variant = variants.derive(bare, variants.effects_on(needed + [name]))
         times = {"bare": [], "effect": []}
         try:
             for _ in range(repeats):

@@ -24,9 +24,8 @@ import math
 import numpy as np
 from pydrake.common.schema import Rotation, Transform
 
+from testbed import variants
 from testbed.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS
-from testbed.effects import registry
-from testbed.effects.contact import drake_approximation
 from testbed.errors import SimulationError
 from testbed.physics import GRAVITY
 from testbed.scenario import ContainerSpec, Scenario, load_scenario
@@ -50,12 +49,8 @@ class StressCase:
 def _scenario(name, containers, duration, *, model="hydroelastic", approximation="auto", time_step=1e-3,
               ground=True) -> Scenario:
     s = Scenario(name=name, description=name, duration=duration, ground=ground, containers=containers)
-    s.plant.time_step = time_step
-    s.effects.contact.model = s.plant.contact_model = model
-    s.effects.contact.approximation = approximation
-    s.plant.discrete_contact_approximation = drake_approximation(approximation, model)
-    s.effects.contact_log = registry()["contact_log"].Config()
-    return s
+    return variants.derive(s, variants.timing(time_step=time_step), variants.contact(model, approximation),
+                           variants.log_contacts())
 
 
 def _box(name, z, *, type="1CC", mass=20000.0, rpy_deg=(0.0, 0.0, 0.0), xy=(0.0, 0.0), v_z=0.0, fixed=False):
@@ -117,8 +112,8 @@ def drop_on_stack(speed: float = 2.0, **kw) -> StressCase:
 def resting_stack(scene: str = "nine_mixed_stack", duration: float = 60.0, **kw) -> StressCase:
     """A shipped stack resting; logged every 10 ms (rest is judged on slow quantities)."""
     base = load_scenario(scene)
-    s = _scenario(f"{scene}_{duration:g}s", base.containers, duration, **kw)
-    s.effects.contact_log.every_steps = max(1, int(round(0.01 / s.plant.time_step)))
+    s = variants.derive(_scenario(f"{scene}_{duration:g}s", base.containers, duration, **kw),
+                        variants.log_contacts(None))  # every records.RECORD_PERIOD
     return StressCase(s.name, s, max_penetration=5e-3, resting=True)
 
 
@@ -131,8 +126,8 @@ def wobble(time_step: float, mass: float = 2200.0, margin: float = 0.0, duration
     rpy = (0.1, 0.0, 0.0)  # a 0.1 deg tilt, released 1 mm above: it lands on one edge first
     boxes = [_box("lower", H_20 / 2, fixed=True),
              _box("upper", H_20 + 1e-3 + _lowest_offset("1CC", rpy), mass=mass, rpy_deg=rpy)]
-    s = _scenario(f"wobble_h{time_step:g}_m{mass:g}_margin{margin:g}", boxes, duration, time_step=time_step, **kw)
-    s.effects.contact.hydroelastic_margin = margin
+    s = variants.derive(_scenario(f"wobble_h{time_step:g}_m{mass:g}_margin{margin:g}", boxes, duration,
+                                  time_step=time_step, **kw), variants.contact_params(margin=margin))
     return StressCase(s.name, s, max_penetration=5e-3, resting=True, support="lower")
 
 

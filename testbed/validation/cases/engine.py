@@ -1,12 +1,13 @@
-"""Case kind `engine`: the same scenes simulated by MuJoCo, against Drake's ground truth (issue 13).
+"""Case kind `engine`: the same scenes simulated by the other engines (testbed/engines: every
+registered one but Drake and the gated learned loop; today MuJoCo), against Drake's ground truth.
 
-One case per scene (testbed.engines.mujoco_compare.engine_table_row): Drake's run of the
+One case per scene, one engine_table_row per engine (testbed/engines/comparison.py): Drake's run of the
 scene's own contact model (the ground truth, with its contact log), Drake's bare
 hydroelastic and point-contact runs (for their speed), and MuJoCo with both contact
 parameter sets ('matched' to Drake's hydroelastic stiffness and its discrete step's
 dissipation, and MuJoCo's 'default'), all in one process. Drake runs the scene's own
 contact parameters (the shipped 1e9 Pa unless the scene overrides them), not the learned
-twins' 1e8 Pa (testbed.engines.mujoco_compare.engine_variant). A missing MuJoCo, or a
+twins' 1e8 Pa (testbed.engines.comparison.engine_variant). A missing engine, or a
 scene it cannot translate, makes the case unavailable (a result saying why), not an error.
 Reported, not gated.
 
@@ -20,14 +21,13 @@ from __future__ import annotations
 import math
 
 from testbed.document import Section, Text, table
-from testbed.engines.mujoco import UnsupportedSceneError, mujoco_module
-from testbed.engines.mujoco_compare import engine_table_row
-from testbed.errors import OptionalDependencyError
+from testbed.engines import UnsupportedSceneError, alternatives, engine
+from testbed.engines.comparison import engine_table_row
 from testbed.validation.cases import Case, CaseKind, register
 
 SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
 SECTION_TITLE = "The engine users would pick instead"
-PARAMS = ("matched", "default")
+PARAMS = engine("mujoco").param_sets  # MuJoCo's sets (KEYS: its figures), the engine this section was first written for
 # (scene, simulated duration [s]): each scene's own, nine_mixed_stack cut from 5 s to 2 s
 # (Drake's hydroelastic run of it costs ~7 s per simulated second here, three times over).
 # Measured on 2 busy cores (load ~4.7): 132 s of worker time for all seven (crane_misaligned,
@@ -38,25 +38,23 @@ FULL_EXTRA = (("crane_misaligned", 5.0), ("windy_stack", 4.0), ("crane_edge_land
               ("quay_wind_slide", 1.0), ("stack_slide_off", 3.0))
 SMOKE_DURATION_S = 0.3
 
-# figures kept per parameter set (scalars of compare.json and the contact comparison)
-KEYS = ("diverged", "position_error_max_m", "final_position_error_max_m", "final_angle_error_max_deg",
-        "max_penetration_m", "energy_gain_max_J", "contact_point_error_median_m", "contact_point_error_p95_m",
-        "contact_point_error_final_max_m", "contact_normal_error_max_deg", "contact_rows_compared",
-        "contact_rows_missing_mujoco", "wall_per_sim_s_mujoco", "speedup_vs_hydroelastic", "speedup_vs_point",
-        "simulated_s_learned")
+
+
+def keys(name: str) -> tuple:
+    """The figures kept per parameter set of engine `name` (scalars of compare.json and the
+    contact comparison)."""
+    return ("diverged", "position_error_max_m", "final_position_error_max_m", "final_angle_error_max_deg",
+            "max_penetration_m", "energy_gain_max_J", "contact_point_error_median_m", "contact_point_error_p95_m",
+            "contact_point_error_final_max_m", "contact_normal_error_max_deg", "contact_rows_compared",
+            f"contact_rows_missing_{name}", f"wall_per_sim_s_{name}", "speedup_vs_hydroelastic", "speedup_vs_point",
+            "simulated_s_learned")
+
+
+KEYS = keys("mujoco")
 
 
 def engine_cases(scenes) -> list[Case]:
     return [Case(f"engine-{s}", "engine", {"scene": s, "duration": d}) for s, d in scenes]
-
-
-def unavailable_reason() -> str | None:
-    """Why the MuJoCo engine cannot run here (its install command), or None."""
-    try:
-        mujoco_module()
-    except (ImportError, OptionalDependencyError) as e:
-        return str(e).strip().splitlines()[0]
-    return None
 
 
 @register
@@ -76,19 +74,23 @@ class EngineCase(CaseKind):
         return []
 
     def run(self, scene: str, duration: float) -> dict:
-        reason = unavailable_reason()
-        if reason is not None:
-            return {"scene": scene, "available": False, "reason": reason}
-
-        try:
-            row = engine_table_row(scene, params=PARAMS, duration=duration)
-        except UnsupportedSceneError as e:
-            return {"scene": scene, "available": False, "reason": str(e).strip().splitlines()[0]}
-        import mujoco
-
-        out = {k: v for k, v in row.items() if k != "mujoco"}
-        out.update(available=True, mujoco_version=mujoco.__version__,
-                   mujoco={p: {k: f.get(k) for k in KEYS} for p, f in row["mujoco"].items()})
+        """Every other engine's table row; unavailable (with the first reason) when none ran."""
+        out, reasons = {"scene": scene}, []
+        for e in alternatives():
+            reason = e.unavailable()
+            if reason is None:
+                try:
+                    row = engine_table_row(scene, e.name, params=e.param_sets, duration=duration)
+                except UnsupportedSceneError as err:
+                    reason = str(err).strip().splitlines()[0]
+            if reason is not None:
+                reasons.append(reason)
+                continue
+            out.update({k: v for k, v in row.items() if k != e.name})
+            out.update({"available": True, f"{e.name}_version": e.version(),
+                        e.name: {p: {k: f.get(k) for k in keys(e.name)} for p, f in row[e.name].items()}})
+        if not out.get("available"):
+            return {"scene": scene, "available": False, "reason": reasons[0] if reasons else "no other engine"}
         return out
 
     def sections(self, records: list[dict]) -> list[Section]:
@@ -110,7 +112,7 @@ class EngineCase(CaseKind):
                  "x vs point", "position err max [mm]", "final position err [mm]", "final angle err [deg]",
                  "max penetration [mm]", "energy gain [J]", "contact point err median [mm]", "p95 [mm]",
                  "normal err max [deg]", "diverged"],
-                [_row(s, p, f) for s in ran for p, f in s["mujoco"].items()]))
+                [_row(s, e.name, p, f) for s in ran for e in alternatives() for p, f in s.get(e.name, {}).items()]))
         missing = [s for s in results if not s.get("available")]
         if missing:
             blocks.append(Text("Unavailable: " + "; ".join(f"{s['scene']} ({s['reason']})" for s in missing)))
@@ -126,8 +128,8 @@ def _num(value, scale=1.0, fmt=".3g") -> str:
     return "n/a" if value is None or (isinstance(value, float) and math.isnan(value)) else format(value * scale, fmt)
 
 
-def _row(s: dict, params: str, f: dict) -> tuple:
-    return (s["scene"], params, _num(f["simulated_s_learned"], fmt="g"), _num(f["wall_per_sim_s_mujoco"], 1e3),
+def _row(s: dict, name: str, params: str, f: dict) -> tuple:
+    return (s["scene"], params, _num(f["simulated_s_learned"], fmt="g"), _num(f[f"wall_per_sim_s_{name}"], 1e3),
             _num(f["speedup_vs_hydroelastic"], fmt=".0f"), _num(f["speedup_vs_point"], fmt=".0f"),
             _num(f["position_error_max_m"], 1e3), _num(f["final_position_error_max_m"], 1e3),
             _num(f["final_angle_error_max_deg"]), _num(f["max_penetration_m"], 1e3), _num(f["energy_gain_max_J"]),
@@ -136,18 +138,20 @@ def _row(s: dict, params: str, f: dict) -> tuple:
 
 
 def summary(ran: list[dict]) -> str:
-    """One paragraph: the speed-up range and the worst trajectory error per parameter set."""
+    """One paragraph: the speed-up range and the worst trajectory error per engine and parameter set."""
     parts = []
-    for p in PARAMS:
-        figures = [(s["scene"], s["mujoco"][p]) for s in ran if p in s["mujoco"]]
-        if not figures:
-            continue
-        hydro = [f["speedup_vs_hydroelastic"] for _, f in figures]
-        point = [f["speedup_vs_point"] for _, f in figures]
-        scene, worst = max(figures, key=lambda x: -1.0 if x[1]["position_error_max_m"] is None
-                           else x[1]["position_error_max_m"])
-        parts.append(f"MuJoCo ({p}) runs {_range(hydro)}x faster than Drake hydroelastic and "
-                     f"{_range(point)}x faster than Drake point contact; its largest trajectory error "
-                     f"is {_num(worst['position_error_max_m'], 1e3)} mm ({scene})")
-    diverged = [f"{s['scene']} ({p})" for s in ran for p, f in s["mujoco"].items() if f["diverged"]]
+    for e in alternatives():
+        for p in e.param_sets or (None,):
+            figures = [(s["scene"], s[e.name][p]) for s in ran if p in s.get(e.name, {})]
+            if not figures:
+                continue
+            hydro = [f["speedup_vs_hydroelastic"] for _, f in figures]
+            point = [f["speedup_vs_point"] for _, f in figures]
+            scene, worst = max(figures, key=lambda x: -1.0 if x[1]["position_error_max_m"] is None
+                               else x[1]["position_error_max_m"])
+            parts.append(f"{e.label} ({p}) runs {_range(hydro)}x faster than Drake hydroelastic and "
+                         f"{_range(point)}x faster than Drake point contact; its largest trajectory error "
+                         f"is {_num(worst['position_error_max_m'], 1e3)} mm ({scene})")
+    diverged = [f"{s['scene']} ({p})" for s in ran for e in alternatives() for p, f in s.get(e.name, {}).items()
+                if f["diverged"]]
     return "; ".join(parts) + "." + (f" Diverged: {', '.join(diverged)}." if diverged else "")

@@ -1,8 +1,9 @@
 """Case kind `sim_sweep`: whole simulations, cost against accuracy (testbed.studies.sim).
 
-A case may ask for MuJoCo curves beside Drake's (`engines: ["drake", "mujoco"]`): the
-same time-step sweep simulated by MuJoCo with both contact parameter sets, its error
-measured against the fine-step Drake reference of the scene's own contact model.
+A case may ask for other engines' curves beside Drake's (`engines: ["drake", "mujoco"]`;
+engine_cases asks for every registered engine with contact of its own: testbed/engines): the
+same time-step sweep simulated by that engine with each of its contact parameter sets, its
+error measured against the fine-step Drake reference of the scene's own contact model.
 Section: the cost/accuracy chart (one curve per engine and contact configuration, Drake
 solid, MuJoCo dashed) and its table."""
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 import math
 
 from testbed.document import Figure, Section, Text, png, pyplot, table
+from testbed.engines import alternatives, engine as registered
 from testbed.studies.sim import sweep
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.cases.engine import SECTION_ORDER
@@ -26,15 +28,17 @@ ENGINE_SCENES = (("two_stack", 0.5), ("nine_mixed_stack", 0.5), ("single_drop", 
 
 def _case(scene, model, approximation, time_steps, duration, reference_step=1e-4, engines=("drake",)) -> Case:
     """One configuration; time_steps and reference_step [s], duration [s] simulated."""
-    suffix = "-mujoco" if "mujoco" in engines else ""
+    suffix = "".join(f"-{e}" for e in engines if e != "drake")
     return Case(f"sim-{scene}-{model}-{approximation}{suffix}", "sim_sweep", {
         "scene": scene, "models": [model], "approximations": [approximation], "time_steps": time_steps,
         "reference_step": reference_step, "duration": duration, "engines": list(engines)})
 
 
 def engine_cases(scenes=ENGINE_SCENES, time_steps=ENGINE_STEPS) -> list[Case]:
-    """Drake (the scene's own model, SAP) and MuJoCo over one time-step sweep, per scene."""
-    return [_case(s, SCENE_MODEL, "sap", time_steps, d, engines=("drake", "mujoco")) for s, d in scenes]
+    """Drake (the scene's own model, SAP) and every other engine (testbed.engines.alternatives:
+    MuJoCo) over one time-step sweep, per scene."""
+    engines = ("drake", *(e.name for e in alternatives()))
+    return [_case(s, SCENE_MODEL, "sap", time_steps, d, engines=engines) for s, d in scenes]
 
 
 @register
@@ -63,10 +67,10 @@ class SimSweepCase(CaseKind):
         rows = [row for r in records for row in r["result"]["rows"]]
         if not rows:
             return []
-        engine_rows = [row for r in records if "mujoco" in r["params"].get("engines", ()) for row in r["result"]["rows"]]
+        engine_rows = [row for r in records if _other_engines(r) for row in r["result"]["rows"]]
         # the Drake configurations on this section's chart; the engine sweeps (Drake and MuJoCo)
         # on their own chart in the engine section (below), when there are both kinds of case
-        drake_rows = [row for r in records if "mujoco" not in r["params"].get("engines", ()) for row in r["result"]["rows"]]
+        drake_rows = [row for r in records if not _other_engines(r) for row in r["result"]["rows"]]
         blocks = [Figure("figures/sim.png", "simulation cost vs accuracy", chart(drake_rows or rows))]
         if engine_rows:
             blocks.insert(0, Text(MUJOCO_NOTE))
@@ -80,6 +84,11 @@ class SimSweepCase(CaseKind):
         if engine_rows:
             out.append(engine_chart_section(engine_rows))
         return out
+
+
+def _other_engines(record) -> bool:
+    """Whether a case swept an engine besides Drake."""
+    return any(e != "drake" for e in record["params"].get("engines", ()))
 
 
 def engine_chart_section(rows) -> Section:
@@ -123,8 +132,8 @@ def chart(rows, title="Simulation cost vs accuracy (one curve per engine and con
         if not points:
             continue
         colour = cycle[(scenes.index(scene) if len(scenes) > 1 else i) % len(cycle)]
-        if engine == "mujoco":
-            label, style = f"{scene} MuJoCo {approximation}", STYLES.get(approximation, "s--")
+        if engine != "drake":
+            label, style = f"{scene} {registered(engine).label} {approximation}", STYLES.get(approximation, "s--")
         else:
             label, style = f"{scene} Drake {model} {approximation}", "o-"
         ax.plot([p["ms_per_sim_second"] for p in points], [max(p["deviation_m"], 1e-9) for p in points], style,

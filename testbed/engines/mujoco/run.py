@@ -25,10 +25,11 @@ import time
 import numpy as np
 
 from testbed.effects.wind import projected_area
-from testbed.engines.mujoco import build_model, mujoco_module
-from testbed.engines.mujoco_crane import CraneRopes
+from testbed.engines.mujoco.crane import CraneRopes
+from testbed.engines.mujoco.model import build_model, mujoco_module
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
+from testbed.simulation import Trajectory
 
 
 @dataclasses.dataclass
@@ -216,22 +217,13 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
                      body_names=tr.body_names, free_names=tr.free_names, mjcf=tr.mjcf)
 
 
-def sampled_run_mujoco(scenario: Scenario, *, params: str = "matched", sample_period: float = 0.01) -> dict:
-    """The simulation study's `sampled_run` (testbed/studies/sim.py) for MuJoCo, same keys:
-    'times' (k,) [s], 'p_WB' (k, m, 3) [m], 'min_phi' (k,) [m] smallest contact distance
-    (inf without contact), 'energy' (k,) [J], 'wall_s' (mj_step calls only),
-    'ms_per_sim_second', 'status' ('ok' | 'diverged'), 'failure'. Time step and duration
-    are the scenario's (the study's `configure` sets them)."""
-    run = simulate_mujoco(scenario, params=params)
-    steps, contacts = run.tables["steps"], run.tables["contacts"]
-    h = run.summary["time_step_s"]
-    every = max(1, int(round(sample_period / h)))
+def trajectory_of(run: MujocoRun, every: int) -> Trajectory:
+    """The MuJoCo run as a testbed.simulation.Trajectory on the grid of every `every` steps."""
+    steps = run.tables["steps"]
     keep = np.flatnonzero(steps["step"] % every == 0)
-    min_phi = np.full(int(steps["step"].max()) + 1, np.inf)
-    np.minimum.at(min_phi, contacts["step"], contacts["phi"])
-    diverged = run.summary["diverged"]
-    return {"times": steps["time"][keep], "p_WB": steps["p_WB"][keep], "min_phi": min_phi[steps["step"][keep]],
-            "energy": (steps["kinetic_energy"] + steps["potential_energy"])[keep],
-            "wall_s": run.summary["wall_time_s"], "ms_per_sim_second": run.summary["ms_per_sim_second"],
-            "status": "diverged" if diverged else "ok",
-            "failure": "MuJoCo flagged an unstable state (mjWARN_BADQACC) or a non-finite one" if diverged else ""}
+    energy = steps["kinetic_energy"] + steps["potential_energy"]
+    s = run.summary
+    return Trajectory(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
+                      V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
+                      wall_s=s["wall_time_s"], simulated_s=s["steps"] * s["time_step_s"],
+                      error="MuJoCo reported an unstable state" if s["diverged"] else "", names=tuple(run.free_names))

@@ -18,9 +18,9 @@ What is translated (Drake side in brackets):
   mu_dynamic (Drake's discrete solvers use mu_dynamic only; friction.mu overrides it; no
   `friction` effect: condim 1, frictionless); no `contact` effect: no pairs;
 - wind: the force of testbed/effects/wind.py, applied each step through xfrc_applied at C
-  (mujoco_run.py); gravity -GRAVITY z.
+  (run.py); gravity -GRAVITY z.
 - the crane: the same ropes, trolley profile and twistlock release as testbed/effects/crane.py,
-  as applied forces (mujoco_crane.py). Effects whose role is not PHYSICS (recorders,
+  as applied forces (crane.py). Effects whose role is not PHYSICS (recorders,
   observers, viewers: no dynamics) are ignored; a PHYSICS effect whose `translated_by` does
   not name "mujoco" (learned_dynamics) raises UnsupportedSceneError with its
   `untranslated_reason`;
@@ -89,13 +89,14 @@ import numpy as np
 from testbed.boxes import BOX_TYPE
 from testbed.effects import Role, registry
 from testbed.effects.contact import drake_approximation
-from testbed.errors import OptionalDependencyError, TestbedError, UnknownChoiceError
+from testbed.engines.base import UnsupportedSceneError
+from testbed.engines.mujoco import PARAM_SETS
+from testbed.errors import OptionalDependencyError, UnknownChoiceError
 from testbed.model_loading import BOX_DEFAULT_PROPERTIES, GROUND_URL, resolve_url, solid_box_inertia
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
 
 GROUND_NAME = "quay_ground"  # the builder's name for the quay body (body_names[0])
-PARAM_SETS = ("matched", "default")
 CONTACTS_PER_FACE = 4  # MuJoCo's contacts for a face-on-face box pair (measured, tests)
 MATCHED_IMPEDANCE = 0.1  # smallest d0 of the matched set (see the module docstring)
 MATCHED_IMPRATIO = 100.0
@@ -104,16 +105,12 @@ DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 ENGINE_NAME = "mujoco"  # what an effect's `translated_by` names when this engine reproduces it
 
 
-class UnsupportedSceneError(TestbedError, ValueError):
-    """A scene this engine cannot simulate; the message names the scene, effect and reason."""
-
-
 def mujoco_module():
     """The `mujoco` package, or OptionalDependencyError with the install command."""
     try:
         import mujoco
     except ImportError:
-        raise OptionalDependencyError("mujoco", "The MuJoCo engine (testbed/engines/mujoco.py)", "study") from None
+        raise OptionalDependencyError("mujoco", "The MuJoCo engine (testbed/engines/mujoco/)", "study") from None
     return mujoco
 
 
@@ -153,14 +150,13 @@ def check_supported(scenario: Scenario) -> None:
     for i, spec in enumerate(scenario.containers):
         if spec.type == BOX_TYPE and spec.box is not None and spec.box.corner_spheres > 0:
             raise UnsupportedSceneError(
-                f"scene '{scenario.name}': containers[{i}].box.corner_spheres is not supported by the MuJoCo "
-                "engine (extra point-contact spheres; MuJoCo's box collision already returns the corners)")
+                scenario.name, f"containers[{i}].box.corner_spheres", "is not supported by the MuJoCo engine (extra "
+                "point-contact spheres; MuJoCo's box collision already returns the corners)")
     for name in scenario.declared_effects():
         cls = registry()[name]
         if cls.role is Role.PHYSICS and ENGINE_NAME not in cls.translated_by:  # the others have no dynamics
             reason = cls.untranslated_reason or "no MuJoCo translation of this effect exists yet"
-            raise UnsupportedSceneError(
-                f"scene '{scenario.name}': effects.{name} is not supported by the MuJoCo engine: {reason}")
+            raise UnsupportedSceneError(scenario.name, f"effects.{name}", f"is not supported by the MuJoCo engine: {reason}")
 
 
 @functools.lru_cache(maxsize=None)

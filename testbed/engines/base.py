@@ -1,0 +1,79 @@
+"""The Engine protocol: a simulator that runs the testbed's scenes.
+
+An engine is one package of testbed/engines/ whose `__init__` registers an Engine subclass
+with `testbed.engines.register`. Every engine answers the same three questions:
+
+  name                     its registry name (`testbed compare --engine NAME`, the
+                           simulation study's `engines`, the engine case kind)
+  check(scenario)          None, or UnsupportedSceneError (a ScenarioError: the scene,
+                           the field and why) before anything runs
+  run(scenario, ...)       an EngineRun: the Trajectory of the free containers every
+                           `record_every` steps, and (contacts=True) its contact rows
+
+Contact rows are one row per touching body pair per step, in the shape of
+testbed/effects/contact_log.py's `contacts` table: step, time [s], a, b (body indices,
+a < b, ground = 0), p_W_cop (n, 3) [m], n_W (n, 3) unit a -> b, f_W (n, 3) [N] on b,
+phi (n,) [m] (negative = penetration). `reference` marks Drake, the ground truth every
+other engine is judged against; `gated` marks the run that the closed-loop gates judge
+(the learned loop); `param_sets` names an engine's contact-parameter sets, first the default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, ClassVar
+
+from testbed.errors import ScenarioError
+
+
+class UnsupportedSceneError(ScenarioError):
+    """A scene an engine cannot simulate: "scene '<name>': <field> <problem>" (one line)."""
+
+    def __init__(self, scene: str, field: str, problem: str):
+        super().__init__(f"scene '{scene}'", "", f"{field} {problem}" if field else problem)
+        self.field = field
+
+
+@dataclasses.dataclass
+class EngineRun:
+    """One engine's run of one scene (see the module doc for the contact rows).
+
+    trajectory: testbed.simulation.Trajectory (its `error` says how a failed run ended);
+    contacts: the contact rows, or None when not asked for; summary: engine-specific
+    figures (version, wall_per_sim_s [s per simulated s], max_penetration_m [m], ...);
+    files: extra output files, name -> text (e.g. the translated model)."""
+
+    trajectory: Any
+    contacts: dict | None = None
+    summary: dict = dataclasses.field(default_factory=dict)
+    files: dict = dataclasses.field(default_factory=dict)
+
+
+class Engine:
+    """Base class of engines (see the module doc). Subclasses set `name`, `label` and
+    override `check` and `run`; `unavailable` and `version` where a package is optional."""
+
+    name: ClassVar[str] = ""
+    label: ClassVar[str] = ""  # as printed: "MuJoCo"
+    order: ClassVar[int] = 100  # registry order; lower first
+    reference: ClassVar[bool] = False  # the ground truth the others are judged against (Drake)
+    gated: ClassVar[bool] = False  # judged by the closed-loop gates (the learned loop)
+    param_sets: ClassVar[tuple[str, ...]] = ()  # contact-parameter sets, the default first
+
+    def unavailable(self) -> str | None:
+        """Why this engine cannot run here (a missing package and its install command), or None."""
+        return None
+
+    def version(self) -> str:
+        return ""
+
+    def check(self, scenario) -> None:
+        """Raises UnsupportedSceneError when this engine cannot run `scenario`."""
+
+    def run(self, scenario, *, duration: float | None = None, record_every: int = 1, params: str | None = None,
+            contacts: bool = False, source: object = "<scenario>") -> EngineRun:
+        """Simulates `scenario` for `duration` [s] (None: the scene's) from its initial state,
+        recording every `record_every` plant steps; `params`: one of `param_sets` (None: the
+        first); `contacts`: also return the contact rows. A run that fails ends early with
+        trajectory.error set (testbed/simulation.py's failure convention)."""
+        raise NotImplementedError
