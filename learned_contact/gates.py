@@ -1,12 +1,18 @@
 """Accuracy gates of the learned predictor, evaluated on held-out poses made on the spot.
 
-Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7; training uses + 1 and + 2):
+Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8; training uses + 1 and + 2):
 - "stacking", "general": the training distributions, re-drawn from unused seeds;
 - "outside": poses OUTSIDE the training sampler's distribution: stacking landings
   drawn with roll and pitch up to 10 deg (training: 5 deg) and penetration up to 5 cm
   (training: 3 cm), of which only the poses beyond a training range are kept (a steeper
   tilt or a deeper overlap); all of them lie in the predictor's answered domain
   (DOMAIN_DEPTH).
+- "resting": where shipped stacks sit at the 1e9 Pa modulus (issue 20; sampling's
+  "resting" distribution: overlap 5 um to 0.5 mm log-uniform, roll and pitch within
+  0.05 deg, yaw within 2 deg, offsets up to 0.4 m). `resting_set(seed, n)` draws it
+  alone (the bench's resting set). The shipped predictor misses the issue's targets
+  there: they are pinned KNOWN_LIMITS; the one resting gate it meets (its p95 against
+  the prior's) is a THRESHOLDS gate.
 
 Two kinds of gate, and why: absolute bounds (the issue-3 thresholds) say the answer is
 good enough for a crane simulator; "vs prior" bounds say the network earns its place.
@@ -51,6 +57,8 @@ THRESHOLDS = {
     "outside point error median": (0.022, "m"),  # 1.5-1.6 cm (prior 2.6-2.8 cm)
     "outside point error median vs prior": (0.75, "x"),  # 0.55-0.61
     "outside normal error p95": (1.5, "deg"),  # 0.82-1.12 deg (prior 1.7-2.6 deg)
+    # resting (issue 20): the network improves the tail on its own geometric estimate
+    "resting point error p95 vs prior": (0.9, "x"),  # 0.60-0.78 (prior 1; point contact 5.3-6.7)
 }
 # Targets out of reach today, pinned like the stress suite's expected failures: the gate
 # holds while the figure stays in the band (factors of the pinned figure), so a network
@@ -61,20 +69,43 @@ KNOWN_LIMITS = {
         1.0, 1.23, (0.75, 1.3),
         "the network moves the median general-pose point 1.15-1.34x further from Drake's than its own geometric "
         "estimate does (8.1 mm against 7.0 mm): it trades the median for the tails (p95 0.45-0.52x the prior's)"),
+    # issue 20's resting targets; seeds 0, 1, 2, 98765 measured (pinned: 98765, the test's seed)
+    "resting point error median": (
+        0.002, 0.0235, (0.75, 1.3),
+        "the shipped network, trained on depths uniform in 0-3 cm, moves resting points 2.1-2.4 cm from Drake's "
+        "CoP (its geometric prior: 2.0-2.6 cm; Drake point contact 8.5-10.5 cm)"),
+    "resting point error p95": (
+        0.05, 0.123, (0.75, 1.3),
+        "measured 11.5-13.3 cm (prior 14.9-20.4 cm, point contact 99-116 cm): tilts of 0.05 deg over a 6-12 m "
+        "box make most resting contacts edge-on wedges whose CoP neither estimate places (a candidate trained "
+        "with resting poses reaches 3.6-4.4 cm: learned_contact/README.md)"),
+    "resting normal error p95": (
+        0.5, 2.06, (0.75, 1.4),
+        "measured 1.9-2.5 deg where the geometric prior scores 0.041-0.044 deg and point contact 0.001-0.003 "
+        "deg: the network's normal correction, learned on deep contacts, tilts a normal the geometry has right"),
 }
+LIMIT_UNITS = {"vs prior": "x", "normal": "deg"}  # unit of a KNOWN_LIMITS figure by its name, else "m"
 # Reported, not gated: where the geometric estimate is already exact (the normal of a
 # vertex-face contact), the network can only lose; these figures show by how much.
-REPORTED = ("general normal error median", "general normal error p95", "stacking normal error median")
+REPORTED = ("general normal error median", "general normal error p95", "stacking normal error median",
+            "resting point error p99", "resting normal error median")
 
 
 def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False) -> dict:
-    """{"stacking", "general", "outside": Dataset} of held-out poses (not cached)."""
+    """{"stacking", "general", "outside", "resting": Dataset} of held-out poses (not cached)."""
     data = {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
             for d, k in (("stacking", 5), ("general", 6))}
     wide = make_dataset("stacking", n, 10 * seed + 7, workers=workers, progress=progress, use_cache=False,
                         **OUTSIDE_RANGES)
     data["outside"] = wide.subset(outside_training(wide))
+    data["resting"] = resting_set(seed, n, workers=workers, progress=progress)
     return data
+
+
+def resting_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False):
+    """The held-out "resting" Dataset (sampling seed 10 * seed + 8, not cached): n
+    proposals of sampling's "resting" distribution, labelled by Drake."""
+    return make_dataset("resting", n, 10 * seed + 8, workers=workers, progress=progress, use_cache=False)
 
 
 def outside_training(ds) -> np.ndarray:
@@ -108,6 +139,7 @@ def _figures_of(point, normal, ds) -> dict:
     S = octant_signs(ds.p_AB)
     mae = paper_table(paper_outputs(point, normal, S), paper_outputs(ds.cop, ds.normal, S))["mean"]["MAE"]
     return {"point error median": float(np.median(e_point)), "point error p95": float(np.percentile(e_point, 95)),
+            "point error p99": float(np.percentile(e_point, 99)),
             "normal error median": float(np.median(e_normal)), "normal error p95": float(np.percentile(e_normal, 95)),
             "MAE on the paper's 4 outputs": float(mae)}
 
@@ -133,15 +165,25 @@ def gate_figures(predictor, data: dict) -> dict:
     return answer_figures(answers, data)
 
 
+def limit_unit(name: str) -> str:
+    """Unit of a KNOWN_LIMITS figure: "x" for ratios to the prior, "deg" for normals, else "m"."""
+    return next((unit for key, unit in LIMIT_UNITS.items() if key in name), "m")
+
+
 def verdicts(figures: dict, n: int, seed) -> list[dict]:
-    """The gates (dicts as metrics.json holds them) judged from `figures`."""
+    """The gates (dicts as metrics.json holds them) judged from `figures`. A gate whose
+    pose set `figures` does not cover (its first word, e.g. "resting") is left out, so a
+    caller measuring fewer sets judges those it has."""
+    measured = {name.split(" ")[0] for name in figures}
     out = [{"name": name, "passed": bool(figures[name] <= limit), "value": figures[name], "threshold": limit,
             "unit": unit, "description": f"{name} on {n} held-out poses per set (seed {seed}), must be <= {limit} {unit}"}
-           for name, (limit, unit) in THRESHOLDS.items()]
+           for name, (limit, unit) in THRESHOLDS.items() if name.split(" ")[0] in measured]
     for name, (target, pinned, (low, high), why) in KNOWN_LIMITS.items():
+        if name.split(" ")[0] not in measured:
+            continue
         band = [low * pinned, high * pinned]
         out.append({"name": f"{name} (known limit)", "passed": bool(band[0] <= figures[name] <= band[1]),
-                    "value": figures[name], "threshold": band, "unit": "x",
+                    "value": figures[name], "threshold": band, "unit": limit_unit(name),
                     "description": f"target <= {target} not reached; pinned at {pinned} (seed {seed}, {n} poses per "
                                    f"set): {why}. Fails if the figure leaves the band."})
     return out

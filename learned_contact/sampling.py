@@ -18,6 +18,11 @@ Distributions
   orientations are snapped to within +-1 deg of one of the 24 axis-aligned rotations
   so that face-face and edge-face contact are well represented.
 Penetration depth is uniform in [0, 3 cm] in both.
+- "resting": where shipped stacks sit at the 1e9 Pa modulus (issue 20): B stacked on A,
+  penetration log-uniform in [RESTING_DEPTH] (5 um to 0.5 mm), roll and pitch uniform
+  within +-0.05 deg, yaw uniform within +-2 deg, horizontal offset of B's centre
+  uniform in +-0.4 m along each of A's x and y axes. u = +z of A. Its ranges are fixed
+  (max_depth and max_tilt_deg are refused for it).
 """
 
 from __future__ import annotations
@@ -31,9 +36,11 @@ from learned_contact.errors import DatasetError
 from learned_contact.geometry import random_rotations, rotation_from_rpy
 from testbed.containers import CONTAINER_TYPES
 
-DISTRIBUTIONS = ("stacking", "general")
+DISTRIBUTIONS = ("stacking", "general", "resting")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
 MAX_DEPTH = 0.03  # [m]
+RESTING_DEPTH = (5e-6, 5e-4)  # [m] log-uniform penetration of the "resting" distribution
+RESTING_TILT_DEG, RESTING_YAW_DEG, RESTING_OFFSET = 0.05, 2.0, 0.4  # [deg], [deg], [m]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -89,14 +96,19 @@ def _footprint_overlap(x, y, yaw, half_a, half_b) -> np.ndarray:
     return np.min(overlaps, axis=0)
 
 
-def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_depth: float = MAX_DEPTH,
-           max_tilt_deg: float = 5.0) -> Proposals:
-    """n seeded proposals of `distribution` ("stacking" or "general") for ordered
-    type pairs drawn uniformly from `types` x `types`.
+def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_depth: float | None = None,
+           max_tilt_deg: float | None = None) -> Proposals:
+    """n seeded proposals of `distribution` ("stacking", "general" or "resting") for
+    ordered type pairs drawn uniformly from `types` x `types`.
 
-    max_depth [m] and max_tilt_deg (stacking roll and pitch bound) widen the ranges for
-    held-out poses outside the training distribution (learned_contact/gates.py); the
-    defaults are the training ranges and draw exactly the same random stream."""
+    max_depth [m] (default MAX_DEPTH) and max_tilt_deg (stacking roll and pitch bound,
+    default 5 deg) widen the ranges for held-out poses outside the training distribution
+    (learned_contact/gates.py); the defaults are the training ranges and draw exactly the
+    same random stream. "resting" has fixed ranges (module docstring) and refuses both."""
+    if distribution == "resting" and (max_depth is not None or max_tilt_deg is not None):
+        raise DatasetError("the 'resting' distribution has fixed ranges; max_depth and max_tilt_deg are not accepted")
+    max_depth = MAX_DEPTH if max_depth is None else max_depth
+    max_tilt_deg = 5.0 if max_tilt_deg is None else max_tilt_deg
     if distribution not in DISTRIBUTIONS:
         raise DatasetError(f"unknown distribution {distribution!r}; expected one of: {', '.join(DISTRIBUTIONS)}")
     if n < 1:
@@ -132,6 +144,15 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
             ok = _footprint_overlap(trial[:, 0], trial[:, 1], rpy[todo, 2], half_a[todo, :2], half_b[todo, :2]) >= 0.1
             xy[todo[ok]] = trial[ok]
             todo = todo[~ok]
+        base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
+        direction = np.tile([0.0, 0.0, 1.0], (n, 1))
+    elif distribution == "resting":
+        depth = np.exp(rng.uniform(*np.log(RESTING_DEPTH), size=n))
+        rpy = np.empty((n, 3))
+        rpy[:, :2] = rng.uniform(-np.radians(RESTING_TILT_DEG), np.radians(RESTING_TILT_DEG), size=(n, 2))
+        rpy[:, 2] = rng.uniform(-np.radians(RESTING_YAW_DEG), np.radians(RESTING_YAW_DEG), size=n)
+        R_AB = rotation_from_rpy(rpy)
+        xy = rng.uniform(-RESTING_OFFSET, RESTING_OFFSET, size=(n, 2))
         base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
         direction = np.tile([0.0, 0.0, 1.0], (n, 1))
     else:

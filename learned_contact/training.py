@@ -47,14 +47,23 @@ class TrainConfig:
     epochs: int = 40
     batch: int = 512
     learning_rate: float = 3e-3  # peak of a one-cycle schedule (Adam)
-    point_scale: float = 0.02  # [m] point error scale in the loss (smooth L1 beta 0.05 m)
+    point_scale: float = 0.02  # [m] point error scale in the loss
+    point_beta: float = 0.05  # [m] smooth L1 beta of the point loss (quadratic below it)
     normal_scale: float = 0.02  # unit-vector error scale in the loss
+    # labelled "resting" poses (sampling.py, issue 20) added to the training pool; 0: the
+    # shipped recipe (RESTING_RECIPE is the measured candidate, learned_contact/README.md)
+    n_resting: int = 0
     workers: int = 2
     torch_threads: int = 1
     paper: PaperConfig = PaperConfig()
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
+
+
+# The resting-regime candidate of issue 20 (not shipped; figures in learned_contact/README.md):
+# the shipped recipe plus 60 000 resting poses and 80 epochs (beta 1 cm: see the README).
+RESTING_RECIPE = {"n_resting": 60_000, "epochs": 80}
 
 
 def _split(ds: Dataset, n_val: int):
@@ -113,7 +122,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
         return peb + POINT_STEP * y[:, :3], torch.nn.functional.normalize(neb + y[:, 3:], dim=1)
 
     def loss_fn(p, n, pc_, nc_):
-        lp = torch.nn.functional.smooth_l1_loss(p, pc_, beta=0.05) / config.point_scale
+        lp = torch.nn.functional.smooth_l1_loss(p, pc_, beta=config.point_beta) / config.point_scale
         ln = ((n - nc_) ** 2).sum(1).mean() / config.normal_scale**2
         return lp + ln
 
@@ -144,12 +153,15 @@ def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
     """The labelled sets of the default run (cached): general/stacking pools and tests."""
     kw = dict(types=config.types, workers=config.workers, progress=progress)
     s_tr, s_te = 10 * config.seed + SEED_TRAIN, 10 * config.seed + SEED_TEST
-    return {
+    out = {
         "general": make_dataset("general", config.n_general, s_tr, **kw),
         "stacking": make_dataset("stacking", config.n_stacking, s_tr, **kw),
         "general_test": make_dataset("general", config.n_test_general, s_te, **kw),
         "stacking_test": make_dataset("stacking", config.n_test_stacking, s_te, **kw),
     }
+    if config.n_resting:
+        out["resting"] = make_dataset("resting", config.n_resting, s_tr, **kw)
+    return out
 
 
 def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: TrainConfig | None = None) -> dict:
@@ -164,7 +176,10 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
     t_labels = time.perf_counter() - t0
     g_tr, g_va = _split(data["general"], int(config.n_val_fraction * len(data["general"])))
     s_tr, s_va = _split(data["stacking"], int(config.n_val_fraction * len(data["stacking"])))
-    train, val = _concat([g_tr, s_tr]), _concat([g_va, s_va])
+    pools = [(g_tr, g_va), (s_tr, s_va)]
+    if "resting" in data:
+        pools.append(_split(data["resting"], int(config.n_val_fraction * len(data["resting"]))))
+    train, val = _concat([t for t, _ in pools]), _concat([v for _, v in pools])
     mlp, info = train_improved(train, val, config, progress=progress)
     sizes = np.array([CONTAINER_TYPES[t].size for t in config.types])
     meta = {"config": config.to_json(), "seed": seed, "train_info": {"best_val_loss": info["best_val_loss"]}}
@@ -213,15 +228,20 @@ def evaluate_models(predictor: ContactPredictor, paper: NumpyMLP, sets: dict, pa
 
 
 def main(argv=None) -> None:
-    """python -m learned_contact.training [--out DIR] [--seed N] [--quiet]"""
+    """python -m learned_contact.training [--out DIR] [--seed N] [--recipe resting] [--quiet]"""
     import argparse
 
     parser = argparse.ArgumentParser(description="Reproduce learned_contact's shipped model from a seed.")
     parser.add_argument("--out", default=None, help="output folder (default learned_contact/shipped)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--recipe", choices=("shipped", "resting"), default="shipped",
+                        help="resting: issue 20's candidate (RESTING_RECIPE; needs --out)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     args = parser.parse_args(argv)
-    metrics = train_default(args.out, seed=args.seed, progress=not args.quiet)
+    if args.recipe == "resting" and args.out is None:
+        parser.error("--recipe resting needs --out DIR (it would overwrite the shipped model)")
+    config = TrainConfig(**RESTING_RECIPE) if args.recipe == "resting" else None
+    metrics = train_default(args.out, seed=args.seed, progress=not args.quiet, config=config)
     print(json.dumps(metrics["wall_time_s"]))
 
 

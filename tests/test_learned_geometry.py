@@ -66,6 +66,24 @@ def test_sampling_is_seeded_and_within_ranges():
         sample("sideways", 10, 0)
 
 
+def test_resting_sampling_covers_its_ranges_and_keeps_the_others_stream():
+    """Issue 20's resting distribution: log-uniform overlap 5 um-0.5 mm, roll/pitch within
+    0.05 deg, yaw within 2 deg, offsets up to 0.4 m, every ordered type pair."""
+    from learned_contact.geometry import rpy_from_rotation
+
+    r = sample("resting", 4000, 3)
+    assert np.all((r.depth >= 5e-6) & (r.depth <= 5e-4))
+    # log-uniform: the decade 5-50 um holds half the poses (binomial sd 0.8 %, bound 4 sd)
+    assert abs(np.mean(r.depth < 5e-5) - 0.5) < 0.032
+    rpy = np.degrees(rpy_from_rotation(r.R_AB))
+    assert np.all(np.abs(rpy[:, :2]) <= 0.05 + 1e-9) and np.all(np.abs(rpy[:, 2]) <= 2.0 + 1e-9)
+    assert np.all(np.abs(r.base[:, :2]) <= 0.4) and np.all(r.base[:, 2] == 0.0)
+    np.testing.assert_array_equal(r.direction, np.tile([0.0, 0.0, 1.0], (4000, 1)))
+    assert len(np.unique(3 * r.type_a + r.type_b)) == 9  # all 9 ordered type pairs
+    with pytest.raises(DatasetError, match="fixed ranges"):
+        sample("resting", 10, 0, max_depth=0.01)
+
+
 def test_contact_type_tags_simple_cases():
     R0 = np.eye(3)[None]
     face = contact_type(np.array([[0.0, 0.0, H_A[2] + H_B[2] - 0.01]]), R0, H_A, H_B)

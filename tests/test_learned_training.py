@@ -24,3 +24,23 @@ def test_train_default_is_reproducible_from_seed(tmp_path, monkeypatch):
         assert (tmp_path / "a" / name).is_file()
     # the evaluation ran on the external sets
     assert np.isfinite(m1["improved"]["external/general"]["normal_deg"]["median"])
+
+
+@pytest.mark.slow
+def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, monkeypatch):
+    """TrainConfig.n_resting (issue 20's candidate, RESTING_RECIPE) labels that many
+    "resting" poses and trains on them: the run records them and its weights differ from
+    the same run without them (same seed, same other data)."""
+    import dataclasses
+    import json
+
+    from learned_contact.training import RESTING_RECIPE
+
+    assert RESTING_RECIPE["n_resting"] > 0 and TrainConfig().n_resting == 0  # the shipped recipe has none
+    monkeypatch.setenv("TESTBED_CACHE", str(tmp_path / "cache"))
+    m = train_default(tmp_path / "r", seed=3, progress=False, config=dataclasses.replace(TINY, n_resting=400))
+    assert "resting" in m["dropped_without_surface"]
+    assert json.loads((tmp_path / "r" / "config.json").read_text())["n_resting"] == 400
+    train_default(tmp_path / "plain", seed=3, progress=False, config=TINY)
+    a, b = load_predictor(tmp_path / "r" / "weights.npz"), load_predictor(tmp_path / "plain" / "weights.npz")
+    assert not np.allclose(a.mlp.weights[0], b.mlp.weights[0])
