@@ -51,7 +51,7 @@ def _accuracy(data: dict) -> Section:
                          _n(f["point_median_m_vs_prior"], fmt=".2f"), _n(f["point_p95_m_vs_prior"], fmt=".2f")))
     return Section("Accuracy on held-out poses (Drake static hydroelastic labels)", [
         Text("Sets: stacking and general (the training distributions, unused seeds), outside (stacking beyond the "
-             "training ranges), resting (0 to 0.5 mm overlap, roll and pitch within 0.05 deg: where shipped stacks "
+             "training ranges), resting (overlap log-uniform 5 um to 0.5 mm, roll and pitch within 0.05 deg: where shipped stacks "
              "sit). 'vs prior': the figure over the geometric estimate's alone on the same poses (< 1: better)."),
         table(["predictor", "set", "poses", "point median [cm]", "p95 [cm]", "p99 [cm]", "normal median [deg]",
                "p95 [deg]", "p99 [deg]", "point median vs prior", "point p95 vs prior"], rows),
