@@ -28,25 +28,40 @@ DEFAULT_PREDICTORS = SHIPPED_NAMES
 N_POSES = 400
 
 
+KNOWN = "(known limit)"  # the suffix of a gate held only within a pinned band (its target is not met)
+
+
+def known_limits(entry: dict) -> list[str]:
+    """The gates this predictor passes only within a pinned known-limit band (accuracy
+    gates by name, closed-loop ones as 'scene: gate'): targets it does not meet."""
+    out = [g["name"] for g in entry["accuracy"]["gates"] if g["passed"] and g["name"].endswith(KNOWN)]
+    return out + [f"{s}: {g['name']}" for s, f in entry["closed_loop"].items() for g in f["gates"]
+                  if g["passed"] and g["name"].endswith(KNOWN)]
+
+
 def _verdict(entry: dict) -> tuple[bool, str]:
-    """(good enough, one line): every accuracy gate and every closed-loop scene's gates pass."""
+    """(good enough, one line): every accuracy gate and every closed-loop scene's gates pass;
+    'within known limits' when some pass only within their pinned bands (targets not met)."""
     acc, closed = entry["accuracy"], entry["closed_loop"]
     held = [s for s, f in closed.items() if f["passed"]]
     failed = [s for s, f in closed.items() if not f["passed"]]
     cost = entry["cost"]
     good = acc["gates_passed"] == acc["gates_total"] and not failed
-    return good, (f"{'GOOD ENOUGH' if good else 'NOT GOOD ENOUGH'}: accuracy gates {acc['gates_passed']}/"
+    limits = known_limits(entry)
+    word = ("GOOD ENOUGH" + (f" WITHIN {len(limits)} KNOWN LIMITS" if limits else "")) if good else "NOT GOOD ENOUGH"
+    return good, (f"{word}: accuracy gates {acc['gates_passed']}/"
                   f"{acc['gates_total']}, closed loop {len(held)}/{len(closed)} scenes within gates"
                   + (f" (fails {', '.join(failed)})" if failed else "")
+                  + (f"; targets not met, held only within pinned bands: {', '.join(limits)}" if good and limits else "")
                   + f", {cost['batched_vs_drake_point']:.2g}x Drake point-pair's cost per pair batched, "
                   f"{cost['single_vs_drake_point']:.2g}x one pair per call")
 
 
 def _score(entry: dict) -> tuple:
-    """Leaderboard order: good enough first, then closed-loop scenes held, accuracy gates
+    """Leaderboard order: good enough first, fewer known limits, then closed-loop scenes held, accuracy gates
     passed, stacking point median, then batched cost."""
     acc = entry["accuracy"]
-    return (not entry["good_enough"], -sum(f["passed"] for f in entry["closed_loop"].values()),
+    return (not entry["good_enough"], len(entry["known_limits"]), -sum(f["passed"] for f in entry["closed_loop"].values()),
             -acc["gates_passed"], acc["sets"]["stacking"]["point_median_m"], entry["cost"]["batched_s_per_pair"])
 
 
@@ -87,6 +102,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
             entries[s]["closed_loop"][scene] = {**result["predictors"][s], "duration_s": result["duration_s"]}
     for s in specs:
         entries[s]["good_enough"], entries[s]["verdict"] = _verdict(entries[s])
+        entries[s]["known_limits"] = known_limits(entries[s])
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
            "references": costs["references"], "leaderboard": board, "wall_s": time.perf_counter() - t0}
