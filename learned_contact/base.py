@@ -14,9 +14,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from learned_contact.geometry import sat_normal
 from learned_contact.interface import DOMAIN_DEPTH, check_numpy, check_outside, check_poses, check_size_shape, domain_error, raise_for_status
 from learned_contact.mlp import NumpyMLP
+from testbed.geometry.boxes import sat_normal
 
 FORMAT_VERSION = 1
 

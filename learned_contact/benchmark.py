@@ -39,7 +39,7 @@ import numpy as np
 
 from learned_contact.labels import _pair_scene, _query, make_dataset
 from learned_contact.sources import SHIPPED_NAMES, load_predictor
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 
 TARGETS = {  # ratio name -> upper bound (issue 10)
     "single improved compiled / drake point-pair set+query": 1.0,

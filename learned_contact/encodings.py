@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.geometry import CORNER_SIGNS, patch_estimate
+from learned_contact.prior import patch_estimate
+from testbed.geometry.boxes import CORNER_SIGNS
 
 _E1 = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)  # azimuth zero
 _POLE = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)

@@ -11,7 +11,7 @@ the effects, the gates and the closed loop treat every model alike:
   NORMAL_LENGTH_TOLERANCE from 1 is refused with PredictorOutputError naming how many
   poses; normals within the tolerance are normalised;
 - depth: the model's own `depth` answer when it gives one, else the separating-axis
-  depth of the two boxes (testbed.box_geometry.sat_normal), the same figure the shipped
+  depth of the two boxes (testbed.geometry.boxes.sat_normal), the same figure the shipped
   predictors report;
 - poses outside DOMAIN_DEPTH: outside="clip" clamps the point into A's box grown by
   CLIP_MARGIN (as the shipped predictors do), outside="raise" refuses them.
@@ -29,8 +29,8 @@ import numpy as np
 
 from learned_contact.errors import PredictorOutputError
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, check_numpy, check_outside, domain_error
-from testbed.box_geometry import sat_normal
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry.boxes import sat_normal
 
 # A model's normals are accepted within this distance of unit length and normalised: a
 # float32 network normalising its own output is unit to ~1e-7; 1e-3 admits a model that

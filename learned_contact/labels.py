@@ -3,7 +3,7 @@
 For each proposal (sampling.py) a worker process places A at the origin and B at
 p_AB = base + s u, bisecting s with Drake's signed distance until the penetration
 depth equals the target, then asks the QueryObject (not a sampled output port) for
-- ComputeContactSurfaces(kPolygon) -> testbed.contact_geometry.static_pressure:
+- ComputeContactSurfaces(kPolygon) -> testbed.contact.surfaces.static_pressure:
   centre of pressure and pressure-weighted normal, turned to point from A towards B;
 - ComputePointPairPenetration: Drake's point-contact point (midpoint of the two
   witness points), normal A->B and depth.
@@ -23,22 +23,22 @@ import os
 import numpy as np
 
 from learned_contact import cache
-from learned_contact.geometry import contact_type
+from learned_contact.prior import contact_type
 from learned_contact.sampling import Proposals, sample
 from testbed.progress import progress as progress_bar
 
 LABEL_VERSION = 2  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus)
 _BISECT_TOL = 1e-6  # [m]
 
-# Per-process state: (type_a, type_b) -> testbed.pair_plant.ContainerPair
+# Per-process state: (type_a, type_b) -> testbed.contact.pair_plant.ContainerPair
 _SCENES: dict = {}
 
 
 def _pair_scene(type_a: str, type_b: str):
-    """The per-process two-container plant for (type_a, type_b) (testbed.pair_plant)."""
+    """The per-process two-container plant for (type_a, type_b) (testbed.contact.pair_plant)."""
     key = (type_a, type_b)
     if key not in _SCENES:
-        from testbed.pair_plant import ContainerPair
+        from testbed.contact.pair_plant import ContainerPair
 
         _SCENES[key] = ContainerPair(type_a, type_b)
     return _SCENES[key]
@@ -58,7 +58,7 @@ def label_one(type_a: str, type_b: str, R_AB, base, direction, depth) -> np.ndar
     Drake reports no contact surface."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
-    from testbed.contact_geometry import static_pressure, surface_face_arrays
+    from testbed.contact.surfaces import static_pressure, surface_face_arrays
 
     scene = _pair_scene(type_a, type_b)
     R_AB = np.asarray(R_AB)

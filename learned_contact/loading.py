@@ -25,7 +25,7 @@ from learned_contact.base import FORMAT_VERSION
 from learned_contact.errors import WeightsError, weights_error
 from learned_contact.mlp import ACTIVATIONS, NumpyMLP
 from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.safe_files import load_npz
 
 SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}

@@ -54,12 +54,12 @@ import numpy as np
 from learned_contact import onnx_graph as og
 from learned_contact.encodings import LENGTH_SCALE, PAPER_FRAME
 from learned_contact.errors import WeightsError
-from learned_contact.geometry import sat_normal
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
 from learned_contact.loading import load_weights
 from learned_contact.onnx_graph import IR_VERSION, OPSET, onnx_type
 from learned_contact.predictor import POINT_STEP
 from learned_contact.sampling import sample
+from testbed.geometry.boxes import sat_normal
 
 INPUTS = ("p_AB", "R_AB", "size_A", "size_B")
 INPUT_SHAPES = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}

@@ -18,8 +18,9 @@ import numpy as np
 
 from learned_contact.base import MLPPredictor
 from learned_contact.encodings import canonicalise, from_spherical, octant_signs, paper_outputs, proper
-from learned_contact.geometry import rpy_from_rotation, sat_normal
 from learned_contact.mlp import NumpyMLP
+from testbed.geometry.boxes import sat_normal
+from testbed.geometry.rotations import rpy_from_rotation
 from testbed.progress import progress as progress_bar
 
 

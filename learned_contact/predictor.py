@@ -19,8 +19,8 @@ import numpy as np
 
 from learned_contact.base import FORMAT_VERSION, MLPPredictor
 from learned_contact.encodings import canonicalise, features
-from learned_contact.geometry import sat_normal
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
+from testbed.geometry.boxes import sat_normal
 
 SHIPPED_DIR = Path(__file__).resolve().parent / "shipped"
 DEFAULT_WEIGHTS = SHIPPED_DIR / "weights.npz"

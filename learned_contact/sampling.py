@@ -33,8 +33,8 @@ import itertools
 import numpy as np
 
 from learned_contact.errors import DatasetError
-from learned_contact.geometry import random_rotations, rotation_from_rpy
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
 DISTRIBUTIONS = ("stacking", "general", "resting")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")

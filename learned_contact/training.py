@@ -23,7 +23,7 @@ from learned_contact.mlp import NumpyMLP
 from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets, predict_paper, train_paper
 from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
 from learned_contact.report import write_report
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.progress import progress as progress_bar
 
 SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests use others

@@ -19,13 +19,12 @@ from pydrake.multibody.plant import (
 )
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
-from testbed import model_loading
+from testbed.bodies import models as model_loading
+from testbed.bodies.models import GROUND_NAME
+from testbed.contact.body_index import geometry_body_index
 from testbed.effects import Effect, ModelPlan
 from testbed.errors import ScenarioError
-from testbed.geometry_index import geometry_body_index
 from testbed.scenario import Scenario, checked_effects
-
-GROUND_NAME = "quay_ground"
 
 
 @dataclasses.dataclass

@@ -3,7 +3,7 @@
 A run directory holds:
   scenario.yaml   the fully resolved scenario (yaml_dump_typed), to reproduce the run
   steps.npz       one row per logged step (time, poses, velocities, energy)
-  contacts.npz    one row per contact per step (testbed/contact_extraction.py columns,
+  contacts.npz    one row per contact per step (testbed/contact/extraction.py columns,
                   plus `step` and `time`), the driving model's answer
   shadow.npz      same columns, the shadow model's answer on the same states
   <effect>.npz    further tables added by effects (e.g. learned comparison)

@@ -7,7 +7,7 @@ A scene file is YAML in Drake's conventions (pydrake.common.yaml.yaml_load_typed
     plant: {time_step: 0.001}          # Drake's MultibodyPlantConfig
     containers:
     - name: bottom
-      type: 1CC                        # 1CC | 1AA | 1AAA (testbed/containers.py)
+      type: 1CC                        # 1CC | 1AA | 1AAA (testbed/bodies/containers.py)
       mass: 20000                      # total mass [kg]; omitted = tare
       com_offset: [0.5, 0, 0]          # COM from the geometric centre, frame C [m]
       X_WC: {translation: [0, 0, 1.2955]}  # pose of C in world; rotation: !Rpy {deg: [..]}
@@ -44,8 +44,9 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
-from testbed.boxes import BOX_TYPE, BoxSpec, ContactProperties, GroundSpec, validate_box, validate_ground  # noqa: F401 (re-exported)
-from testbed.containers import CONTAINER_TYPES, ContainerType
+from testbed.bodies.boxes import BOX_TYPE, BoxSpec, GroundSpec, validate_box, validate_ground
+from testbed.bodies.containers import CONTAINER_TYPES, ContainerType
+from testbed.bodies.models import GROUND_NAME
 from testbed.effects import registry
 from testbed.effects.contact import drake_approximation
 from testbed.errors import ScenarioError
@@ -298,7 +299,7 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
         validate_box(c, where, source)
         if not c.name or not c.name.replace("_", "").isalnum():
             raise ScenarioError(source, f"{where}.name", f"expected a non-empty name of letters, digits and '_', got {c.name!r}")
-        if c.name in seen or c.name == "quay_ground":
+        if c.name in seen or c.name == GROUND_NAME:
             raise ScenarioError(source, f"{where}.name", f"duplicate or reserved name {c.name!r}; names must be unique")
         seen.add(c.name)
         mass = c.total_mass()

@@ -15,7 +15,7 @@ in the order given; the caller's scenario is never changed. An edit is a callabl
   contact(model, approximation)  the contact model (and approximation) in effects.contact,
                                the plant's copies derived again (scenario.derive_plant)
   modulus(value)               effects.contact.hydroelastic_modulus [Pa]; None: the learned
-                               law's (learned_force_law.law_modulus of the scene)
+                               law's (learned_dynamics.force_law.law_modulus of the scene)
   contact_params(...)          the other contact settings: hydroelastic margin [m], modulus [Pa]
                                and the plant's stiction tolerance [m/s], as given
   learned_loop(predictor)      the learned closed loop (learned_dynamics) on: the scene's own
@@ -34,8 +34,8 @@ import dataclasses
 
 from testbed.effects import Role, registry
 from testbed.effects.contact_log import ContactLogConfig
-from testbed.effects.learned_dynamics import LearnedDynamicsConfig
-from testbed.learned_force_law import law_modulus
+from testbed.effects.learned_dynamics.effect import LearnedDynamicsConfig
+from testbed.effects.learned_dynamics.force_law import law_modulus
 from testbed.records import steps_per_record
 from testbed.scenario import derive_plant
 
@@ -127,7 +127,7 @@ def contact(model: str | None = None, approximation: str | None = None):
 
 def modulus(value: float | None = None):
     """effects.contact.hydroelastic_modulus = `value` [Pa]; None: the learned law's modulus
-    (the scene's own when it sets one, else learned_force_law.KAPPA_MODULUS). No contact
+    (the scene's own when it sets one, else learned_dynamics.force_law.KAPPA_MODULUS). No contact
     effect: nothing to set."""
     def edit(s):
         if s.effects.contact is not None:

@@ -35,14 +35,14 @@ class Prior(GeometricModel):
 
 class DrakePoint:
     """Drake point contact's point and normal at each pose (one two-box plant per type pair,
-    testbed.pair_plant.ContainerPair); the geometric prior's answer where Drake reports no
+    testbed.contact.pair_plant.ContainerPair); the geometric prior's answer where Drake reports no
     penetrating pair."""
 
     name = "Drake point contact's answer"
     modulus = None  # the SDF's; the point query does not read it
 
     def __init__(self):
-        from testbed.containers import CONTAINER_TYPES
+        from testbed.bodies.containers import CONTAINER_TYPES
 
         self._types = {tuple(np.round(t.size, 3)): code for code, t in CONTAINER_TYPES.items()}
         self._pairs = {}
@@ -51,7 +51,7 @@ class DrakePoint:
     def _pair(self, size_A, size_B):
         key = (self._types[tuple(np.round(size_A, 3))], self._types[tuple(np.round(size_B, 3))])
         if key not in self._pairs:
-            from testbed.pair_plant import ContainerPair
+            from testbed.contact.pair_plant import ContainerPair
 
             self._pairs[key] = ContainerPair(*key, modulus=self.modulus)
         return self._pairs[key]
@@ -82,7 +82,7 @@ class DrakePoint:
 
 class DrakeHydroelastic(DrakePoint):
     """Drake hydroelastic's static answer at each pose: the contact surface's centre of pressure
-    and pressure-weighted normal (testbed.contact_geometry.static_pressure), as the training
+    and pressure-weighted normal (testbed.contact.surfaces.static_pressure), as the training
     labels take them (learned_contact/labels.py); the geometric prior's answer where there is
     no surface. The centre of pressure does not depend on the modulus (pressure scales with it)."""
 
@@ -92,7 +92,7 @@ class DrakeHydroelastic(DrakePoint):
     def _answer(pair, query):
         from pydrake.geometry import HydroelasticContactRepresentation
 
-        from testbed.contact_geometry import static_pressure, surface_face_arrays
+        from testbed.contact.surfaces import static_pressure, surface_face_arrays
 
         surfaces = query.ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
         if not surfaces:

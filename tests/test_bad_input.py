@@ -6,7 +6,7 @@ import sys
 import pytest
 
 from testbed import cli
-from testbed.containers import CONTAINER_TYPES, ContainerType
+from testbed.bodies.containers import CONTAINER_TYPES, ContainerType
 
 GOOD = """name: bad_input_probe
 duration: 0.01
@@ -98,7 +98,7 @@ def test_missing_scene_file(tmp_path, capsys):
 def test_missing_sdf(tmp_path, capsys, monkeypatch):
     broken = ContainerType(**{**CONTAINER_TYPES["1CC"].__dict__, "model_url": "package://testbed/containers/missing.sdf"})
     monkeypatch.setitem(CONTAINER_TYPES, "1CC", broken)
-    from testbed import model_loading
+    from testbed.bodies import models as model_loading
 
     model_loading._read_model.cache_clear()
     code, _, out = _run_cli(tmp_path, GOOD)

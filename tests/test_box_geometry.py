@@ -1,4 +1,4 @@
-"""Closed-form box distances (testbed/box_geometry.py) against Drake's generic query on
+"""Closed-form box distances (testbed/geometry/boxes.py) against Drake's generic query on
 poses where that query is reliable (boxes of similar size near each other), rotated
 boxes included; the compiled kernel against the numpy reference; the slab form."""
 
@@ -10,9 +10,9 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, CoulombFriction
 from pydrake.multibody.tree import SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
 
-from learned_contact.geometry import random_rotations
-from testbed import box_geometry as bg
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry import boxes as bg
+from testbed.geometry.rotations import random_rotations
 
 H_CC = CONTAINER_TYPES["1CC"].half_size  # (3,) [m]
 H_AA = CONTAINER_TYPES["1AA"].half_size
@@ -134,7 +134,8 @@ def test_compiled_kernel_matches_the_numpy_reference():
 def test_near_distances_agree_with_drake_on_a_resting_stack():
     from pydrake.systems.analysis import Simulator
 
-    from testbed import build_scene, contact_extraction as ce, load_scenario
+    from testbed import build_scene, load_scenario
+    from testbed.contact import extraction as ce
 
     scene = build_scene(load_scenario("two_stack"))
     context = scene.create_context()

@@ -8,9 +8,9 @@ stability check and the collision filter.
 import numpy as np
 import pytest
 
+from testbed.effects.learned_dynamics.force_law import FITTED_KAPPA, KAPPA_MODULUS, fit_pressure_stiffness
+from testbed.effects.learned_dynamics.kernels import elastic_one
 from testbed.errors import ScenarioError
-from testbed.learned_force_kernels import elastic_one
-from testbed.learned_force_law import FITTED_KAPPA, KAPPA_MODULUS, fit_pressure_stiffness
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario
@@ -42,9 +42,9 @@ POSES = [((0, 1e-5, 0), (0, 0), 1.6e-4), ((0, 1e-4, 0), (0, 0), 1.6e-4), ((0, 1e
 def _drake_and_law(rpy, offset, overlap):
     from pydrake.geometry import HydroelasticContactRepresentation
 
-    from learned_contact.geometry import rotation_from_rpy
-    from testbed.contact_geometry import static_pressure, surface_face_arrays
-    from testbed.pair_plant import ContainerPair
+    from testbed.contact.pair_plant import ContainerPair
+    from testbed.contact.surfaces import static_pressure, surface_face_arrays
+    from testbed.geometry.rotations import rotation_from_rpy
 
     h = np.array([3.029, 1.219, 1.2955])  # 1CC half extents [m]
     R = rotation_from_rpy(np.array([rpy], dtype=float))[0]
@@ -123,7 +123,7 @@ def test_shadow_truth_is_drakes_force_at_the_same_pose(two_stack_run):
 def test_shadow_truth_is_sampled_at_its_period_and_matches_every_step(two_stack_run):
     """Rows carry a truth answer exactly on steps 0, N, 2N, ... (NaN elsewhere, counted in
     the summary), and those answers are the every-step run's on the same steps."""
-    from testbed.effects.learned_truth import TRUTH_COLUMNS
+    from testbed.effects.learned_dynamics.truth import TRUTH_COLUMNS
 
     scenario, _ = two_stack_run
     every = scenario.effects.learned_dynamics.truth_every_steps

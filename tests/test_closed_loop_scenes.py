@@ -14,8 +14,8 @@ import math
 import numpy as np
 import pytest
 
-from testbed.compare.metrics import angle_between_rotations
 from testbed.compare.runs import run_variant, variant
+from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.scenario import load_scenario
 from testbed.validation.cases import closed_loop as cl
 
@@ -44,7 +44,7 @@ def tip_closed_form(d=0.1, h=1.2955, a=6.058, c=2.591, angles_deg=(2.0, 5.0, 10.
 def _run(scene: str, kind: str, duration: float):
     traj = run_variant(variant(load_scenario(scene), kind), duration, 1)  # every step recorded
     assert not traj.error
-    turned = angle_between_rotations(traj.q_WB[:, 0], traj.q_WB[0, 0])  # (n,) [deg] the top box
+    turned = angle_between_quaternions_deg(traj.q_WB[:, 0], traj.q_WB[0, 0])  # (n,) [deg] the top box
     moved = np.linalg.norm(traj.p_WB[:, 0] - traj.p_WB[0, 0], axis=1)  # (n,) [m]
     return traj, turned, moved
 

@@ -139,7 +139,7 @@ def test_shipped_models_carry_the_chosen_modulus():
     import xml.etree.ElementTree as ET
     from pathlib import Path
 
-    from testbed.containers import HYDROELASTIC_MODULUS
+    from testbed.bodies.containers import HYDROELASTIC_MODULUS
 
     files = sorted((Path(__file__).resolve().parent.parent / "sdf" / "containers").glob("*.sdf"))
     assert len(files) == 3

@@ -12,7 +12,7 @@ import dataclasses
 import pytest
 
 import testbed.effects as effects_pkg
-import testbed.effects.learned_dynamics as learned_dynamics
+import testbed.effects.learned_dynamics.effect as learned_dynamics
 from testbed import batch, build_scene, load_scenario
 from testbed.compare.runs import variant
 from testbed.effects import Effect, Role, registry

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from learned_contact import PredictorInputError, WeightsError, load_predictor
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.errors import TestbedError
 
 REPO = Path(__file__).resolve().parent.parent

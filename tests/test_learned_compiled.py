@@ -18,9 +18,10 @@ import numpy as np
 import pytest
 
 from learned_contact import PredictorInputError, load_predictor
-from learned_contact.geometry import rotation_from_rpy, sat_normal
 from learned_contact.interface import DOMAIN_DEPTH
 from learned_contact.sampling import sample
+from testbed.geometry.boxes import sat_normal
+from testbed.geometry.rotations import rotation_from_rpy
 
 REPO = Path(__file__).resolve().parent.parent
 TOL = 1e-9  # [m] / [-]: see the module docstring

@@ -5,15 +5,10 @@ import pytest
 
 from learned_contact.encodings import canonicalise, from_spherical, paper_outputs, spherical
 from learned_contact.errors import DatasetError
-from learned_contact.geometry import (
-    contact_type,
-    patch_estimate,
-    random_rotations,
-    rotation_from_rpy,
-    rpy_from_rotation,
-    sat_normal,
-)
+from learned_contact.prior import contact_type, patch_estimate
 from learned_contact.sampling import sample
+from testbed.geometry.boxes import sat_normal
+from testbed.geometry.rotations import random_rotations, rotation_from_rpy, rpy_from_rotation
 
 H_A = np.array([6.096, 1.219, 1.2955])  # 1AA half extents [m]
 H_B = np.array([3.029, 1.219, 1.2955])  # 1CC
@@ -69,7 +64,7 @@ def test_sampling_is_seeded_and_within_ranges():
 def test_resting_sampling_covers_its_ranges_and_keeps_the_others_stream():
     """Issue 20's resting distribution: log-uniform overlap 5 um-0.5 mm, roll/pitch within
     0.05 deg, yaw within 2 deg, offsets up to 0.4 m, every ordered type pair."""
-    from learned_contact.geometry import rpy_from_rotation
+    from testbed.geometry.rotations import rpy_from_rotation
 
     r = sample("resting", 4000, 3)
     assert np.all((r.depth >= 5e-6) & (r.depth <= 5e-4))

@@ -35,7 +35,7 @@ def test_ruff_finds_nothing():
 # Lazy imports of optional heavy packages (torch, mujoco, fcl, ray, matplotlib, onnxruntime,
 # playwright) are not project modules and stay where they are.
 PROJECT = ("testbed", "learned_contact")
-NUMBA_MODULES = ("learned_contact.compiled", "testbed.learned_force_kernels")  # only what runs a kernel loads numba
+NUMBA_MODULES = ("learned_contact.compiled", "testbed.effects.learned_dynamics.kernels")  # only what runs a kernel loads numba
 _CLI = "called only by the command's `run`: the CLI's start-up stays light"
 _DRAKE = "keeps Drake (pydrake) out of a module that imports without it"
 _ENGINE = "an engine's registration stays light: the CLI's parser lists the engines; its simulator loads when it runs"
@@ -52,7 +52,7 @@ ALLOWED = {  # (file, function) -> why its imports of project modules stay insid
     ("testbed/commands/study.py", "_defaults"): _CLI,
     ("testbed/commands/view.py", "view"): _CLI,
     ("testbed/studies/__init__.py", "__getattr__"): "lazy package attribute (PEP 562): the query study on first use",
-    ("testbed/learned_force_law.py", "fit_pressure_stiffness"):
+    ("testbed/effects/learned_dynamics/force_law.py", "fit_pressure_stiffness"):
         _DRAKE + " (the force law is imported by the CLI's compare command; only the fit needs a Drake pair plant)",
     ("learned_contact/labels.py", "_pair_scene"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
     ("learned_contact/labels.py", "label_one"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",

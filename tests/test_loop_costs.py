@@ -107,7 +107,7 @@ def test_logger_distances_from_body_poses_are_drakes():
     from pydrake.systems.analysis import Simulator
 
     from testbed.builder import build_scene
-    from testbed.contact_extraction import near_distances
+    from testbed.contact.extraction import near_distances
     from testbed.scenario import load_scenario
 
     scene = build_scene(load_scenario(TILTED_DROP, overrides=["effects.contact_log={}"]))
@@ -130,7 +130,7 @@ def test_closed_loop_records_keep_touching_rows_and_place_the_truth():
     puts each sampled step's truth on that step's touching rows (NaN elsewhere)."""
     import numpy as np
 
-    from testbed.effects.learned_truth import ClosedLoopRecords, ShadowTruth, absent
+    from testbed.effects.learned_dynamics.truth import ClosedLoopRecords, ShadowTruth, absent
 
     records = ClosedLoopRecords([1, 2, 3], ShadowTruth(["1CC"] * 3, 1e8, 2))
     z3 = np.zeros((2, 3))

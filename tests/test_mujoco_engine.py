@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from testbed.containers import HYDROELASTIC_MODULUS
+from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.errors import OptionalDependencyError
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario

@@ -8,7 +8,7 @@ import pytest
 
 from learned_contact import Predictor, WeightsError, load_predictor
 from learned_contact.loading import SHIPPED
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 
 SIZE_20 = np.array(CONTAINER_TYPES["1CC"].size)
 SIZE_40 = np.array(CONTAINER_TYPES["1AA"].size)

@@ -30,7 +30,7 @@ TESTS = Path(__file__).resolve().parent
 
 def _poses(n=64, seed=3):
     """B resting on A (20 ft on 20 ft), tilted up to 0.02 rad, offset up to 1 m, 0 to 2 cm deep."""
-    from learned_contact.geometry import rotation_from_rpy
+    from testbed.geometry.rotations import rotation_from_rpy
 
     rng = np.random.default_rng(seed)
     R = rotation_from_rpy(np.column_stack([rng.uniform(-0.02, 0.02, (n, 2)), rng.uniform(-0.1, 0.1, n)]))
@@ -64,7 +64,7 @@ def test_onnx_model_answers_its_own_maths(tmp_path, dtype):
 
 
 def test_onnx_depth_output_is_used_and_sat_depth_otherwise(tmp_path):
-    from testbed.box_geometry import sat_normal
+    from testbed.geometry.boxes import sat_normal
 
     p, R = _poses(8)
     with_depth = load_predictor(bm.centre_line_onnx(tmp_path / "d.onnx", depth=True))

@@ -7,7 +7,7 @@ import pytest
 
 from learned_contact import PredictorDomainError, PredictorInputError, load_predictor
 from learned_contact.predictor import CLIP_MARGIN, DOMAIN_DEPTH
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 
 SIZE = np.array(CONTAINER_TYPES["1CC"].size)
 SIZE_40 = np.array(CONTAINER_TYPES["1AA"].size)

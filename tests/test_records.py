@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import G, cached_run, last_step
 
-from testbed.contact_extraction import HYDRO, POINT
+from testbed.contact.extraction import HYDRO, POINT
 from testbed.records import load_table
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario, write_run

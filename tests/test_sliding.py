@@ -22,8 +22,8 @@ import numpy as np
 import pytest
 from conftest import cached_run
 
-from testbed.contact_geometry import rotation_from_quaternion
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry.rotations import rotation_from_quaternion
 from testbed.physics import GRAVITY
 
 MODELS = ("hydroelastic", "point")

@@ -10,8 +10,8 @@ pytest.importorskip("fcl", reason="pip install -e '.[study]'")
 pytest.importorskip("mujoco", reason="pip install -e '.[study]'")
 pytest.importorskip("matplotlib", reason="pip install -e '.[study]'")
 
-from learned_contact.geometry import rotation_from_rpy  # noqa: E402
-from testbed.containers import CONTAINER_TYPES  # noqa: E402
+from testbed.bodies.containers import CONTAINER_TYPES  # noqa: E402
+from testbed.geometry.rotations import rotation_from_rpy  # noqa: E402
 from testbed.studies import query  # noqa: E402
 from testbed.studies.query.methods.drake import DrakeBoxPair  # noqa: E402
 from testbed.studies.query.methods.mujoco import MujocoBoxPair  # noqa: E402

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import cached_run, last_step
 
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects.wind import projected_area
 
 

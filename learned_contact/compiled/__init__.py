@@ -1,7 +1,7 @@
 """Compiled inference for the contact predictors (numba, cached machine code).
 
 Why numba: the kernels are written as plain loops over numpy arrays, in the same
-operations as the numpy reference (learned_contact.geometry / encodings / mlp), so both
+operations as the numpy reference (learned_contact.prior / encodings / mlp), so both
 paths can be compared line by line and agree to rounding; `@njit(cache=True)` stores the
 machine code beside the source (or in the user's cache directory when that is not
 writable), so a fresh process loads it instead of compiling (see `python -m

@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from learned_contact.compiled.geometry import LENGTH_SCALE, MAX_VERTS, N_FEATURES, canonicalise, patch_estimate, sat_depth
+from learned_contact.compiled.prior import LENGTH_SCALE, MAX_VERTS, N_FEATURES, canonicalise, patch_estimate, sat_depth
 from learned_contact.encodings import PAPER_FRAME
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE
 

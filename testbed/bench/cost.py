@@ -19,7 +19,7 @@ import numpy as np
 
 from learned_contact.labels import _pair_scene, _query
 from learned_contact.sources import load_predictor
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 
 SINGLE_PAIRS = 200
 BATCH = 1000

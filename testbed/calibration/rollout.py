@@ -19,10 +19,11 @@ from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
-from testbed import model_loading
+from testbed.bodies import models as model_loading
 from testbed.calibration.data import CUBE_INERTIA, CUBE_MASS, CUBE_WIDTH, TABLE_HEIGHT, Toss
 from testbed.calibration.initial_state import first_frame, initial_state
 from testbed.errors import SimulationError, TestbedError
+from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.simulation import advance
 
 MODELS = ("point", "hydroelastic")
@@ -96,12 +97,6 @@ def initial_velocity(toss: Toss) -> tuple[np.ndarray, np.ndarray]:
     return w_W, v_W
 
 
-def rotation_angle_deg(q_a: np.ndarray, q_b: np.ndarray) -> np.ndarray:
-    """(n,) angle [deg] between two (n, 4) unit quaternion sequences (w, x, y, z), sign-free."""
-    dot = np.abs(np.sum(q_a * q_b, axis=1))
-    return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
-
-
 class TossSimulator:
     """One diagram (cube + table) for one parameter set; `rollout` reuses it for any toss."""
 
@@ -165,5 +160,5 @@ class TossSimulator:
         except RuntimeError:
             return TossResult(toss.toss_id, FAILED_TOSS_ERROR, float("nan"), True)
         position = float(np.mean(np.linalg.norm(p - toss.p_WB, axis=1)) / CUBE_WIDTH)
-        rotation = float(np.mean(rotation_angle_deg(q, toss.q_WB)))
+        rotation = float(np.mean(angle_between_quaternions_deg(q, toss.q_WB)))
         return TossResult(toss.toss_id, position, rotation, False)

@@ -11,8 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from learned_contact import sources
+from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.commands import timestamp
-from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.engines import candidates
 from testbed.errors import ScenarioError, TestbedError
 

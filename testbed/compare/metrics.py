@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.contact_geometry import rotation_from_quaternion
+from testbed.geometry.rotations import angle_between_quaternions_deg, rotation_from_quaternion
 
 # The learned run diverged (blew up) when it failed, went non-finite, sank one container
 # this far into another or the quay [m] (the shipped scenes' deepest Drake contact is a
@@ -21,12 +21,6 @@ DIVERGED_ENERGY_FRACTION = 0.01
 # A physically plausible run may still leave the truth's path (a box tipping off a stack):
 # `departed` flags a container this far from the truth's at some time [m].
 DEPARTED_M = 0.5
-
-
-def angle_between_rotations(q1, q2) -> np.ndarray:
-    """(...,) angle [deg] of the rotation taking unit quaternions q1 to q2 (w, x, y, z)."""
-    dot = np.abs(np.sum(q1 * q2, axis=-1))
-    return np.degrees(2.0 * np.arccos(np.clip(dot, 0.0, 1.0)))
 
 
 def with_fixed(traj, containers):
@@ -107,7 +101,7 @@ def compare_figures(truth, learned, containers, predictor) -> dict:
     containers: all the scene's ContainerSpecs."""
     n = len(learned.time)
     err = np.linalg.norm(learned.p_WB - truth.p_WB[:n], axis=2)  # (n, m) [m]
-    angle = angle_between_rotations(learned.q_WB, truth.q_WB[:n])  # (n, m) [deg]
+    angle = angle_between_quaternions_deg(learned.q_WB, truth.q_WB[:n])  # (n, m) [deg]
     depth, ground = penetrations(learned, containers, predictor)
     depth_truth, ground_truth = penetrations(truth, containers, predictor)
     gain = learned.energy - learned.energy[0]

@@ -20,7 +20,7 @@ def variant(scenario, kind: str, predictor: str | None = None):
     (Drake point contact) or 'learned' (learned_dynamics with `predictor`; None: the
     scene's own learned_dynamics config if it declares one, else "improved"). Every kind
     runs the containers at the learned law's modulus (law_modulus: 1e8 Pa unless the scene
-    sets one), not the SDF's 1e9 Pa: like is compared with like (learned_force_law.KAPPA_MODULUS
+    sets one), not the SDF's 1e9 Pa: like is compared with like (learned_dynamics.force_law.KAPPA_MODULUS
     is its fit, and the stiffest its explicit step takes at 1 ms)."""
     if kind not in KINDS:
         raise ValueError(f"unknown variant {kind!r}")

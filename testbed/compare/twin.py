@@ -10,8 +10,8 @@ from testbed.builder import build_scene
 from testbed.compare import artifacts, costs
 from testbed.compare.metrics import compare_figures
 from testbed.compare.runs import run_variant, variant
+from testbed.effects.learned_dynamics.force_law import law_modulus
 from testbed.errors import TestbedError
-from testbed.learned_force_law import law_modulus
 from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
 

@@ -8,7 +8,7 @@ Adds one system, `contact_logger`, that publishes every time step and records:
 - `steps` table: step number, time, poses, spatial velocities and mechanical
   energy of every free container;
 - `contacts` table: the driving model's answer for every contacting pair
-  (testbed/contact_extraction.py lists the columns) plus both bodies' poses.
+  (testbed/contact/extraction.py lists the columns) plus both bodies' poses.
 
 Other systems read the contacts as they are recorded through `latest_contacts()` and
 `contacts_after(step)` (the learned_contact probe does), never the builder itself.
@@ -26,12 +26,13 @@ from pydrake.geometry import QueryObject
 from pydrake.multibody.plant import ContactResults
 from pydrake.systems.framework import LeafSystem
 
-from testbed import contact_extraction
-from testbed.box_geometry import QueryBoxes
-from testbed.contact_geometry import cross, quaternion_from_rotation
+from testbed.contact import extraction as contact_extraction
+from testbed.contact.body_index import geometry_body_index
+from testbed.contact.surfaces import cross
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
-from testbed.geometry_index import geometry_body_index
+from testbed.geometry.boxes import QueryBoxes
+from testbed.geometry.rotations import quaternion_from_rotation
 from testbed.physics import GRAVITY  # [m/s^2], Drake's default MultibodyPlant gravity magnitude
 from testbed.records import TableBuilder
 
@@ -73,7 +74,7 @@ class ContactLogger(LeafSystem):
             for n, c in zip(free_names, self._com_B)
         ]).reshape(-1, 3, 3)
         self._owner = None
-        self._boxes = None  # testbed.box_geometry.QueryBoxes of the scene, on the first record
+        self._boxes = None  # testbed.geometry.boxes.QueryBoxes of the scene, on the first record
         self._box_body = None  # each box's index into body_names (see _near)
         self._query_port = self.DeclareAbstractInputPort("query", AbstractValue.Make(QueryObject()))
         self._results_port = self.DeclareAbstractInputPort("contact_results", AbstractValue.Make(ContactResults()))

@@ -33,7 +33,7 @@ from pydrake.systems.framework import LeafSystem
 
 from learned_contact import WeightsError, load_predictor  # compiled (numba) inference; no torch
 from learned_contact.interface import SIZE_TOLERANCE
-from testbed.contact_geometry import angle_between
+from testbed.contact.surfaces import angle_between
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind

@@ -27,10 +27,11 @@ import multiprocessing
 import sys
 import typing
 
-from testbed import contact_extraction, viz
+from testbed import viz
+from testbed.contact import extraction as contact_extraction
+from testbed.contact.body_index import geometry_body_index
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
-from testbed.geometry_index import geometry_body_index
 
 
 @dataclasses.dataclass

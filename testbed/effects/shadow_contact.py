@@ -5,7 +5,7 @@ the shadow is the static hydroelastic answer (pressure-weighted centre of pressu
 normal, elastic force); otherwise it is the point-contact answer (FCL's deepest
 point, normal, depth and the elastic force k * depth). Adds one system,
 `shadow_contact_probe`, publishing every time step; rows go to the `shadow` table
-with the columns of testbed/contact_extraction.py.
+with the columns of testbed/contact/extraction.py.
 """
 
 
@@ -16,12 +16,12 @@ from pydrake.common.value import AbstractValue
 from pydrake.geometry import QueryObject
 from pydrake.systems.framework import LeafSystem
 
-from testbed import contact_extraction
-from testbed.contact_geometry import angle_between
+from testbed.contact import extraction as contact_extraction
+from testbed.contact.body_index import geometry_body_index
+from testbed.contact.surfaces import angle_between
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.effects.contact import driving_kind
-from testbed.geometry_index import geometry_body_index
 from testbed.records import TableBuilder
 
 

@@ -19,12 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from testbed import variants
-from testbed.box_geometry import box_box_signed_distance
+from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.compare import artifacts
 from testbed.compare.metrics import compare_figures, error_lines
-from testbed.containers import HYDROELASTIC_MODULUS
+from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
 from testbed.engines import engine
-from testbed.learned_force_law import KAPPA_MODULUS
+from testbed.geometry.boxes import box_box_signed_distance
 from testbed.physics import percentile_summary
 from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path
@@ -46,7 +46,7 @@ def drake_modulus(scenario) -> float:
 
 class SatDepth:
     """The `depth` call compare_figures needs from a predictor, by the separating-axis test
-    (testbed/box_geometry.py): (n,) penetration [m] of B into A, negative = separated."""
+    (testbed/geometry/boxes.py): (n,) penetration [m] of B into A, negative = separated."""
 
     def depth(self, p_AB, R_AB, *, size_A, size_B):
         p, R = np.asarray(p_AB, float).reshape(-1, 3), np.asarray(R_AB, float).reshape(-1, 3, 3)

@@ -16,7 +16,7 @@ holds the worst figure over its cases and a verdict per criterion:
 - energy: worst energy gain after first contact / stability's tolerance (pass: <= 1).
 - toss: mean position error on the held-out real tosses [cube widths] against
   TOSS_ERROR_BOUND ("n/a" when the data file is absent or the case was not run).
-- learned loop: the closed loop's explicit contact force (testbed/effects/learned_dynamics.py)
+- learned loop: the closed loop's explicit contact force (testbed/effects/learned_dynamics/effect.py)
   at this modulus and step, over the closed-loop suite's scenes: worst (h w)^2 + 2 h c / m,
   stable below 4. The learned law's stiffness follows the truth's modulus (kappa proportional
   to E), so a stiffer truth asks for a smaller step of the loop it is meant to replace.
@@ -36,15 +36,15 @@ import multiprocessing
 import time
 
 from testbed import variants
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.calibration.data import load_tosses
 from testbed.calibration.evaluate import RolloutPool, summarize as toss_summary
 from testbed.calibration.params_file import from_fragment
 from testbed.calibration.split import train_test_split
-from testbed.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
-from testbed.effects.learned_dynamics import LearnedDynamicsConfig
+from testbed.effects.learned_dynamics.effect import LearnedDynamicsConfig
+from testbed.effects.learned_dynamics.force_law import pressure_stiffness, stability_numbers
 from testbed.errors import SimulationError
-from testbed.learned_force_law import pressure_stiffness, stability_numbers
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.studies import stability
 from testbed.studies.stability import FORCE_BALANCE_TOL, RESTING_DRIFT_PER_MINUTE, check

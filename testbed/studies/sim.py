@@ -24,7 +24,7 @@ import numpy as np
 
 from testbed import variants
 from testbed.builder import build_scene
-from testbed.contact_extraction import near_distances
+from testbed.contact.extraction import near_distances
 from testbed.effects import registry
 from testbed.engines import engines as registered_engines
 from testbed.errors import OptionalDependencyError, TestbedError

@@ -25,7 +25,8 @@ import numpy as np
 from pydrake.common.schema import Rotation, Transform
 
 from testbed import variants
-from testbed.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS
+from testbed.bodies.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS
+from testbed.bodies.models import GROUND_NAME
 from testbed.errors import SimulationError
 from testbed.physics import GRAVITY
 from testbed.scenario import ContainerSpec, Scenario, load_scenario
@@ -43,7 +44,7 @@ class StressCase:
     scenario: Scenario
     max_penetration: float  # [m] bound for this case
     resting: bool  # judged for drift and force balance at the end
-    support: str = "quay_ground"  # body whose contacts carry the weight at rest (resting cases)
+    support: str = GROUND_NAME  # body whose contacts carry the weight at rest (resting cases)
 
 
 def _scenario(name, containers, duration, *, model="hydroelastic", approximation="auto", time_step=1e-3,

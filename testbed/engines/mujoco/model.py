@@ -3,8 +3,8 @@
 What is translated (Drake side in brackets):
 - each container is a body with a free joint (a `fixed` one: no joint, welded), body frame C
   at the geometric centre placed at X_WC, one box geom of the type's full size
-  [testbed/containers.py], `<inertial pos=com_offset mass diaginertia>` with the uniform
-  solid-box moments about the COM [model_loading.solid_box_inertia, as written into the SDF];
+  [testbed/bodies/containers.py], `<inertial pos=com_offset mass diaginertia>` with the uniform
+  solid-box moments about the COM [testbed.bodies.models.solid_box_inertia, as written into the SDF];
 - the quay [sdf/ground/quay_ground.sdf, a 400 m slab, top face z = 0] is a plane at z = 0
   (infinite: no shipped scene leaves the slab); a scene's ground_surface is a plane at its
   height; generic `type: box` entries keep their size, inertia and contact values;
@@ -86,17 +86,16 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from testbed.boxes import BOX_TYPE
+from testbed.bodies.boxes import BOX_TYPE
+from testbed.bodies.models import BOX_DEFAULT_PROPERTIES, GROUND_NAME, GROUND_URL, resolve_url, solid_box_inertia
 from testbed.effects import Role, registry
 from testbed.effects.contact import drake_approximation
 from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco import PARAM_SETS
 from testbed.errors import OptionalDependencyError, UnknownChoiceError
-from testbed.model_loading import BOX_DEFAULT_PROPERTIES, GROUND_URL, resolve_url, solid_box_inertia
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
 
-GROUND_NAME = "quay_ground"  # the builder's name for the quay body (body_names[0])
 CONTACTS_PER_FACE = 4  # MuJoCo's contacts for a face-on-face box pair (measured, tests)
 MATCHED_IMPEDANCE = 0.1  # smallest d0 of the matched set (see the module docstring)
 MATCHED_IMPRATIO = 100.0
@@ -174,7 +173,7 @@ def proximity(url: str) -> dict:
 
 def properties(spec, ground=None) -> dict:
     """Drake proximity values of a container (its SDF) or a generic box (its `box.contact`
-    over model_loading.BOX_DEFAULT_PROPERTIES); spec None = the ground (`ground`: the
+    over testbed.bodies.models.BOX_DEFAULT_PROPERTIES); spec None = the ground (`ground`: the
     scene's ground_surface, None = the quay slab's SDF)."""
     if spec is None:
         return proximity(GROUND_URL) if ground is None else dict(BOX_DEFAULT_PROPERTIES, **ground.contact.given())

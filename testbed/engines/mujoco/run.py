@@ -27,6 +27,7 @@ import numpy as np
 from testbed.effects.wind import projected_area
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, mujoco_module
+from testbed.geometry.rotations import rotation_from_quaternion
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
 from testbed.simulation import Trajectory
@@ -54,12 +55,8 @@ def wind_force_W(config, size, R_WC, t: float) -> np.ndarray:
 
 
 def _rotations(q: np.ndarray) -> np.ndarray:
-    """(..., 4) wxyz -> (..., 3, 3)."""
-    w, x, y, z = np.moveaxis(q / np.linalg.norm(q, axis=-1, keepdims=True), -1, 0)
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1)], -2)
+    """(..., 4) wxyz, normalised here (MuJoCo's qpos drifts from unit length) -> (..., 3, 3)."""
+    return rotation_from_quaternion(q / np.linalg.norm(q, axis=-1, keepdims=True))
 
 
 def energies(p_WB, q_WB, V_WB, mass, com_B, I_B) -> tuple[np.ndarray, np.ndarray]:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from testbed.contact_geometry import angle_between
+from testbed.contact.surfaces import angle_between
 from testbed.physics import percentile_summary
 from testbed.studies.query.poses import TILT_RANGE
 

@@ -19,10 +19,10 @@ import dataclasses
 import numpy as np
 
 from learned_contact import cache
-from learned_contact.geometry import rotation_from_rpy
 from learned_contact.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
 from learned_contact.sampling import Proposals
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry.rotations import rotation_from_rpy
 
 POSE_SETS = ("stacking", "general", "near_parallel")
 TYPES = ("1CC", "1AA", "1AAA")

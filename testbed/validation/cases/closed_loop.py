@@ -24,12 +24,12 @@ from __future__ import annotations
 import math
 
 from learned_contact import sources
+from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.compare import compare_predictors
 from testbed.compare.costs import breakdown_line
-from testbed.compare.metrics import angle_between_rotations
-from testbed.containers import HYDROELASTIC_MODULUS
 from testbed.document import Bullets, Section, Text, table
-from testbed.learned_force_law import KAPPA_MODULUS
+from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
+from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 from testbed.validation.sensitivity import SENSITIVITY_CHECK
@@ -128,7 +128,7 @@ def series_figures(out_dir, tol_m: float = FINAL_POSITION_TOL_M) -> dict:
         n = len(t)
         gain = d["learned_energy"] - d["learned_energy"][0]  # (n,) [J]
         external = np.maximum(0.0, d["truth_energy"][:n] - d["truth_energy"][0])  # (n,) [J]
-        tilt = [float(np.max(angle_between_rotations(d[f"{k}_q_WB"][-1], d[f"{k}_q_WB"][0]), initial=0.0))
+        tilt = [float(np.max(angle_between_quaternions_deg(d[f"{k}_q_WB"][-1], d[f"{k}_q_WB"][0]), initial=0.0))
                 for k in ("learned", "truth")]
     excess = gain - external
     return {"leaves_truth_at_s": float(t[over[0]]) if over.size else None,

@@ -9,6 +9,7 @@ Sections: the predictor's worst case (near the verdict) and the table of scenes.
 from __future__ import annotations
 
 from testbed import variants
+from testbed.bodies.models import GROUND_NAME
 from testbed.document import Section, Text, table
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario, shipped_scenes
@@ -90,7 +91,7 @@ class SceneCase(CaseKind):
         result = run_scenario(scenario, duration=duration)
         summary = dict(result.summary)
         c = result.tables["contacts"]
-        ground = result.body_names.index("quay_ground") if "quay_ground" in result.body_names else -1
+        ground = result.body_names.index(GROUND_NAME) if GROUND_NAME in result.body_names else -1
         weight = sum(s.total_mass() for s in scenario.containers if not s.fixed) * GRAVITY
         late = (c["time"] >= c["time"].max() - REST_WINDOW_S) & (c["a"] == ground) if len(c["time"]) else np.zeros(0, bool)
         steps = np.unique(c["step"][late]).size

@@ -11,7 +11,7 @@ Modes
   points p_WCa, p_WCb; normal = -nhat_BA_W when Drake's A is our A.
 - "hydro_cc": both boxes compliant_hydroelastic (the SDF models as shipped: E = 1e9 Pa);
   QueryObject.ComputeContactSurfaces(kPolygon) and the centre of pressure and
-  pressure-weighted normal of testbed.contact_geometry.static_pressure. This is the
+  pressure-weighted normal of testbed.contact.surfaces.static_pressure. This is the
   study's reference model.
 - "hydro_cr": B made rigid_hydroelastic in a second plant (compliant A, rigid B).
 Point and normal: (3,) in A's frame [m], normal unit from A into B.
@@ -23,8 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from testbed.contact_geometry import static_pressure, surface_face_arrays
-from testbed.pair_plant import ContainerPair
+from testbed.contact.pair_plant import ContainerPair
+from testbed.contact.surfaces import static_pressure, surface_face_arrays
 from testbed.studies.query.methods.base import ContactMethod
 
 ORDER = 10

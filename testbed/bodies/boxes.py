@@ -14,7 +14,7 @@ replace the quay slab by `ground_surface:` (a slab or a half-space at a given he
         contact: {mu_dynamic: 0.19, point_contact_stiffness: 1.0e6}
     ground_surface: {shape: halfspace, height: -0.0011, contact: {mu_dynamic: 0.19}}
 
-The SDF text is written by testbed.model_loading.box_sdf / flat_ground_sdf with the same
+The SDF text is written by testbed.bodies.models.box_sdf / flat_ground_sdf with the same
 drake:proximity_properties tags as sdf/; missing contact values are the containers'.
 """
 
@@ -31,7 +31,7 @@ BOX_TYPE = "box"
 @dataclasses.dataclass
 class ContactProperties:
     """drake:proximity_properties of a generic box or ground (Drake's tag names and units);
-    None = the containers' value (testbed.model_loading.BOX_DEFAULT_PROPERTIES). Drake
+    None = the containers' value (testbed.bodies.models.BOX_DEFAULT_PROPERTIES). Drake
     combines the two geometries' values of a pair (friction 2ab/(a+b), stiffness in series)."""
 
     mu_dynamic: typing.Optional[float] = None

@@ -10,8 +10,8 @@ import re
 
 import numpy as np
 
-from testbed.containers import container_type
-from testbed.model_loading import container_sdf
+from testbed.bodies.containers import container_type
+from testbed.bodies.models import container_sdf
 
 
 def _rigid(sdf: str) -> str:

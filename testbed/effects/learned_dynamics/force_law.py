@@ -1,8 +1,8 @@
 """The closed loop's force law: its stiffness fitted to Drake and the explicit step's
 stability numbers (no numba here: every scene load imports this; the per-step kernels
-are in testbed/learned_force_kernels.py, imported when a scene builds the effect).
+are in testbed/effects/learned_dynamics/kernels.py, imported when a scene builds the effect).
 
-Used by testbed/effects/learned_dynamics.py (its docstring states the law, the fit and
+Used by testbed/effects/learned_dynamics/effect.py (its docstring states the law, the fit and
 the stability criterion). Frames: A is the first box's frame (origin at its centre, axes
 along its edges); p_AB (n, 3) [m] and R_AB (n, 3, 3) are B's pose in A; half extents
 h_A, h_B (n, 3) [m].
@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.physics import GRAVITY
 
 # [Pa] the modulus the learned law's stiffness is fitted at: 1e8 Pa, NOT the containers' shipped
@@ -51,8 +51,8 @@ def fit_pressure_stiffness(type_a: str, type_b: str, depths=(5e-5, 1e-4, 2e-4, 5
     both boxes compliant with `modulus` [Pa]."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
-    from testbed.contact_geometry import static_pressure, surface_face_arrays
-    from testbed.pair_plant import ContainerPair
+    from testbed.contact.pair_plant import ContainerPair
+    from testbed.contact.surfaces import static_pressure, surface_face_arrays
 
     pair = ContainerPair(type_a, type_b, modulus=modulus)
     s_a, s_b = np.asarray(CONTAINER_TYPES[type_a].size), np.asarray(CONTAINER_TYPES[type_b].size)

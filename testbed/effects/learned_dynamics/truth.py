@@ -2,9 +2,9 @@
 
 With `contact_log` and `learned_dynamics.shadow_truth`, the `closed_loop` table carries,
 next to the learned answer of every active pair, Drake's static hydroelastic answer for
-the same relative pose (a testbed.pair_plant.ContainerPair plant per size pair, at the
+the same relative pose (a testbed.contact.pair_plant.ContainerPair plant per size pair, at the
 containers' modulus). Computing it is ~0.25 ms per pair (ComputeContactSurfaces and the
-per-face reads of testbed.contact_geometry.surface_face_arrays): on every step it made a
+per-face reads of testbed.contact.surfaces.surface_face_arrays): on every step it made a
 9-high stack's logged run 7.3x the bare closed loop. So it is SAMPLED: computed on the
 steps whose number is a multiple of `truth_every_steps` (step = round(t / h); step 0
 included; default 20) and absent on the others (2.1x; 1.7x with no truth at all: the
@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.contact_geometry import angle_between, static_pressure, surface_face_arrays
-from testbed.pair_plant import ContainerPair
+from testbed.contact.pair_plant import ContainerPair
+from testbed.contact.surfaces import angle_between, static_pressure, surface_face_arrays
 
 TRUTH_COLUMNS = ("has_truth", "p_W_truth", "n_W_truth", "fn_truth", "point_error", "normal_error_deg")
 

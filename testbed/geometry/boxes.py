@@ -28,7 +28,7 @@ Exactness:
 
 Bounded time: every function here does a fixed number of floating-point operations per
 pair (8 corners, 15 axes; no iteration to a tolerance, unlike GJK/EPA), so a call costs
-the same on any pose. `QueryBoxes.near` (testbed.contact_extraction.near_distances) runs
+the same on any pose. `QueryBoxes.near` (testbed.contact.extraction.near_distances) runs
 the numba-compiled twin of `pairwise_signed_distances`.
 """
 

@@ -14,12 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
-from testbed.boxes import BOX_TYPE
-from testbed.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS, ContainerType
+from testbed.bodies.boxes import BOX_TYPE
+from testbed.bodies.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS, ContainerType
 from testbed.errors import ModelError
 
-SDF_DIR = Path(__file__).resolve().parent.parent / "sdf"  # the repo's sdf/ folder
+SDF_DIR = Path(__file__).resolve().parents[2] / "sdf"  # the repo's sdf/ folder
 PACKAGE_NAME = "testbed"
+GROUND_NAME = "quay_ground"  # the ground's body and model name in every scene (body_names[0] when a scene has one)
 GROUND_URL = "package://testbed/ground/quay_ground.sdf"
 _DRAKE_NS = "http://drake.mit.edu"
 
@@ -148,7 +149,7 @@ def box_sdf(
 
 
 def flat_ground_sdf(*, shape: str, height: float, size=(400.0, 400.0, 2.0), properties: dict[str, float] | None = None) -> str:
-    """SDF text of a static ground named 'quay_ground' (link 'slab') whose top face is at z = height [m].
+    """SDF text of a static ground named GROUND_NAME (link 'slab') whose top face is at z = height [m].
 
     shape 'slab': a rigid box of full extents `size` [m]; 'halfspace': Drake's half-space
     (infinite, SDF <plane>), drawn as a thin 400 m square. properties as in box_sdf.
@@ -168,7 +169,7 @@ def flat_ground_sdf(*, shape: str, height: float, size=(400.0, 400.0, 2.0), prop
         raise ModelError(f"ground shape {shape!r}; expected 'slab' or 'halfspace'")
     return (
         '<?xml version="1.0"?><sdf version="1.9" xmlns:drake="http://drake.mit.edu">'
-        f'<model name="quay_ground"><static>true</static><link name="slab"><pose>{pose}</pose>'
+        f'<model name="{GROUND_NAME}"><static>true</static><link name="slab"><pose>{pose}</pose>'
         f'<visual name="visual">{visual_pose}{visual_geometry}<material><diffuse>0.55 0.55 0.52 1</diffuse></material></visual>'
         f'<collision name="collision">{collision_geometry}{proximity}</collision></link></model></sdf>'
     )
@@ -197,7 +198,7 @@ def scene_body_sdf(spec, *, collision: bool = True, properties: dict[str, float]
 
 
 def scene_ground_sdf(surface, *, collision: bool = True, properties: dict[str, float] | None = None) -> str:
-    """SDF text of a scene's ground: the quay slab when `surface` (testbed.scenario.GroundSpec) is None."""
+    """SDF text of a scene's ground: the quay slab when `surface` (testbed.bodies.boxes.GroundSpec) is None."""
     if surface is None:
         return ground_sdf(collision=collision, properties=properties)
     text = flat_ground_sdf(shape=surface.shape, height=surface.height, size=surface.size, properties=surface.contact.given())

@@ -1,6 +1,6 @@
 """The closed loop's per-step work as numba kernels (per-pair loops, one call per step):
 plant state -> body poses, candidate pairs, the foundation force on the contact faces and
-the wrenches of testbed/effects/learned_dynamics.py (whose docstring states the law).
+the wrenches of testbed/effects/learned_dynamics/effect.py (whose docstring states the law).
 
 Frames: A is the first box's frame (origin at its centre, axes along its edges); p_AB
 (3,) [m] and R_AB (3, 3) are B's pose in A; half extents hA, hB (3,) [m]. Compiled with

@@ -1,6 +1,6 @@
 """Turns Drake's per-step contact outputs into record rows (column arrays).
 
-Pair order and signs follow testbed/contact_geometry.py: the pair (a, b) has
+Pair order and signs follow testbed/contact/surfaces.py: the pair (a, b) has
 a < b in plant order (ground first), the normal points out of a into b, forces
 are the force on b. One call handles all contacts of one step; every column is
 an array whose first axis is the contact.
@@ -31,8 +31,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.geometry import HydroelasticContactRepresentation
 
-from testbed.box_geometry import QueryBoxes
-from testbed.contact_geometry import point_on_line_of_action, split_force, static_pressure, surface_face_arrays
+from testbed.contact.surfaces import point_on_line_of_action, split_force, static_pressure, surface_face_arrays
+from testbed.geometry.boxes import QueryBoxes
 
 HYDRO, POINT = 0, 1
 VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "p_W_cop_static", "n_W", "f_W", "ft_W")
@@ -71,7 +71,7 @@ class StaticHold:
     surface's faces at most every `every` steps and held in between.
 
     Drake 1.51's bindings read a contact surface one face at a time (four calls per face,
-    testbed.contact_geometry.surface_face_arrays): ~0.15 ms for a 70-face
+    testbed.contact.surfaces.surface_face_arrays): ~0.15 ms for a 70-face
     container-container surface, more than everything else a step's record costs. The
     driving answer (centroid, wrench, CoP on its line of action, area) stays exact every
     step; `static_age` says how old the static columns of a row are. every=1 reads the
@@ -93,13 +93,13 @@ class StaticHold:
 
 
 NEAR_DISTANCE = 1e-3  # [m] pairs closer than this get a signed distance each step
-_BOXES: dict = {}  # geometry-id tuple -> testbed.box_geometry.QueryBoxes (read once per scene)
+_BOXES: dict = {}  # geometry-id tuple -> testbed.geometry.boxes.QueryBoxes (read once per scene)
 
 
 def near_distances(query) -> dict:
     """{frozenset(GeometryId, GeometryId): signed distance [m]} for pairs within NEAR_DISTANCE.
 
-    Closed-form box geometry (testbed/box_geometry.py), bounded time per call: Drake's
+    Closed-form box geometry (testbed/geometry/boxes.py), bounded time per call: Drake's
     generic ComputeSignedDistancePairwiseClosestPoints hangs (FCL GJK) or raises (libccd)
     against the quay slab once a container slides. Penetrating pairs get the exact depth;
     a separated box-box pair gets the separating-axis lower bound on its distance.

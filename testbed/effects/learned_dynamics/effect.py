@@ -13,14 +13,14 @@ Force law, per pair (A = lower body index, B = higher; n points from A into B):
   face pair of least overlap among the 6 face axes: geometry, not the predictor),
   F_el = kappa * integral of max(0, depth(u, v)) dA over the overlap rectangle, with
   depth linear in (u, v) (flat faces), integrated exactly along the steeper face axis
-  and by a GRID-point midpoint rule across it (testbed/learned_force_law.py). kappa
+  and by a GRID-point midpoint rule across it (testbed/effects/learned_dynamics/force_law.py). kappa
   [Pa/m] is fitted to Drake's static hydroelastic force-vs-depth curve of each size
-  pair (testbed.pair_plant.ContainerPair, aligned centred faces, overlap 0.05 to 5 mm;
+  pair (testbed.contact.pair_plant.ContainerPair, aligned centred faces, overlap 0.05 to 5 mm;
   `fit_pressure_stiffness`) at E = 1e8 Pa: 4.1017e7 Pa/m for every pair of 1CC/1AA/1AAA,
   linear within 0.05 % over that range, i.e. E / (2 x 1.219 m) (two compliant boxes, each
   a medial-axis field of depth half the 2.438 m width). The truth's containers are 1e9 Pa
   since issue 12: a law that stiff is unstable in this explicit step at 1 ms on the light
-  and hard-landing scenes (testbed/learned_force_law.py KAPPA_MODULUS says what was
+  and hard-landing scenes (testbed/effects/learned_dynamics/force_law.py KAPPA_MODULUS says what was
   measured). So a scene with this effect runs its containers at the law's modulus
   (KAPPA_MODULUS, 1e8 Pa: the effect's plan sets it on every geometry unless the scene
   sets effects.contact.hydroelastic_modulus, which the law then follows, stability
@@ -63,7 +63,7 @@ per step: a, b, p_W (k, 3) [m], n_W (k, 3), fn (k,) [N], f_W (k, 3) [N] on b, ar
 relative pose (a ContainerPair plant), SAMPLED: computed on steps 0, N, 2N, ... (N =
 `truth_every_steps`, default 20: every 20 ms at 1 ms) and absent on the others. Every row
 carries has_truth (k,) bool, p_W_truth, n_W_truth, fn_truth [N], point_error [m] and
-normal_error_deg, NaN where has_truth is False (testbed/effects/learned_truth.py states
+normal_error_deg, NaN where has_truth is False (testbed/effects/learned_dynamics/truth.py states
 each column; the summary counts the rows with a truth answer and takes its medians over
 those only). truth_every_steps = 1 gives every step's truth, as before. Cost, measured
 side by side in one process on nine_mixed_stack for 1 s (`python -m
@@ -93,12 +93,12 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 from learned_contact import WeightsError, load_predictor
-from testbed.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
-from testbed.effects.learned_truth import ClosedLoopRecords, ShadowTruth, summarize_truth
+from testbed.effects.learned_dynamics.force_law import law_modulus, pressure_stiffness, stability_numbers
+from testbed.effects.learned_dynamics.truth import ClosedLoopRecords, ShadowTruth, summarize_truth
 from testbed.errors import ScenarioError
-from testbed.learned_force_law import law_modulus, pressure_stiffness, stability_numbers
 
 MU_SDF = 0.4  # the models' mu_dynamic (sdf/README.md), what Drake's discrete solvers use
 NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (predicted)
@@ -135,7 +135,7 @@ class LearnedDynamics(LeafSystem):
                  modulus: float):
         super().__init__()
         self.set_name("learned_dynamics")
-        from testbed import learned_force_kernels  # numba: only scenes that build the effect load it
+        import testbed.effects.learned_dynamics.kernels as learned_force_kernels  # numba: only scenes that build the effect load it
 
         self._K = learned_force_kernels
         plant = assembly.plant

@@ -9,49 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from testbed.box_geometry import CORNER_SIGNS, corners_of_B_in_A, sat_axes, sat_normal, sat_overlap  # noqa: F401 (moved)
-
-
-def rotation_from_rpy(rpy) -> np.ndarray:
-    """(n, 3, 3) rotation matrices from (n, 3) roll-pitch-yaw [rad] (R = Rz(y) Ry(p) Rx(r))."""
-    rpy = np.atleast_2d(np.asarray(rpy, dtype=float))
-    r, p, y = rpy[:, 0], rpy[:, 1], rpy[:, 2]
-    cr, sr, cp, sp, cy, sy = np.cos(r), np.sin(r), np.cos(p), np.sin(p), np.cos(y), np.sin(y)
-    R = np.empty((len(rpy), 3, 3))
-    R[:, 0, 0] = cy * cp
-    R[:, 0, 1] = cy * sp * sr - sy * cr
-    R[:, 0, 2] = cy * sp * cr + sy * sr
-    R[:, 1, 0] = sy * cp
-    R[:, 1, 1] = sy * sp * sr + cy * cr
-    R[:, 1, 2] = sy * sp * cr - cy * sr
-    R[:, 2, 0] = -sp
-    R[:, 2, 1] = cp * sr
-    R[:, 2, 2] = cp * cr
-    return R
-
-
-def rpy_from_rotation(R) -> np.ndarray:
-    """(n, 3) roll-pitch-yaw [rad] of (n, 3, 3) rotations (inverse of rotation_from_rpy)."""
-    R = np.asarray(R, dtype=float)
-    pitch = np.arcsin(np.clip(-R[:, 2, 0], -1.0, 1.0))
-    roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
-    yaw = np.arctan2(R[:, 1, 0], R[:, 0, 0])
-    return np.stack([roll, pitch, yaw], axis=1)
-
-
-def random_rotations(rng: np.random.Generator, n: int) -> np.ndarray:
-    """(n, 3, 3) rotations uniform on SO(3) (from uniform unit quaternions)."""
-    q = rng.normal(size=(n, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    w, x, y, z = q.T
-    return np.stack(
-        [
-            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-            np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-            np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-        ],
-        axis=1,
-    )
+from testbed.geometry.boxes import CORNER_SIGNS, corners_of_B_in_A, sat_axes, sat_normal, sat_overlap  # noqa: F401 (moved)
 
 
 def support_count(vertices, direction, tol) -> np.ndarray:

@@ -10,7 +10,7 @@ Drake 1.51.1's Python bindings give no bulk array view of a contact-surface mesh
 polygon mesh's vertices are not shared between faces either, so reading vertices costs
 as much), so `surface_face_arrays` reads each polygon with four binding calls (~2 us
 per face); every computation after that is numpy on whole arrays. Callers that need it
-every step hold the result (testbed.contact_extraction.StaticHold).
+every step hold the result (testbed.contact.extraction.StaticHold).
 """
 
 from __future__ import annotations
@@ -91,43 +91,6 @@ def cross(u, v) -> np.ndarray:
     """Cross product of (..., 3) arrays; np.cross costs ~30 us of overhead on tiny arrays."""
     u, v = np.asarray(u, dtype=float), np.asarray(v, dtype=float)
     return u[..., _NEXT] * v[..., _PREV] - u[..., _PREV] * v[..., _NEXT]
-
-
-def quaternion_from_rotation(R) -> np.ndarray:
-    """(..., 3, 3) rotation matrices -> (..., 4) unit quaternions (w, x, y, z), w >= 0 (the
-    sign RotationMatrix.ToQuaternion returns); Shepperd's method, vectorised: one call
-    for a whole run's rows instead of a binding call per body per step."""
-    R = np.asarray(R, dtype=float)
-    trace = R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2]
-    cand = np.stack([trace, R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]], axis=-1)
-    k = np.argmax(cand, axis=-1)  # the largest of 4w^2 - 1, 4x^2 - 1, ... (well conditioned)
-    s = 2.0 * np.sqrt(np.maximum(1.0 + 2.0 * np.take_along_axis(cand, k[..., None], -1)[..., 0] - trace, 1e-300))
-    d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
-    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]
-    options = np.stack([np.stack([0.25 * s, d21 / s, d02 / s, d10 / s], -1),
-                        np.stack([d21 / s, 0.25 * s, s01 / s, s02 / s], -1),
-                        np.stack([d02 / s, s01 / s, 0.25 * s, s12 / s], -1),
-                        np.stack([d10 / s, s02 / s, s12 / s, 0.25 * s], -1)], -2)  # (..., 4 cases, 4)
-    q = np.take_along_axis(options, k[..., None, None], -2)[..., 0, :]
-    q = q * np.where(q[..., :1] < 0.0, -1.0, 1.0)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
-
-
-def rotation_from_quaternion(q) -> np.ndarray:
-    """(..., 4) unit quaternions (w, x, y, z) -> (..., 3, 3) rotation matrices."""
-    q = np.asarray(q, dtype=float)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    R = np.empty(q.shape[:-1] + (3, 3))
-    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    R[..., 0, 1] = 2 * (x * y - w * z)
-    R[..., 0, 2] = 2 * (x * z + w * y)
-    R[..., 1, 0] = 2 * (x * y + w * z)
-    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    R[..., 1, 2] = 2 * (y * z - w * x)
-    R[..., 2, 0] = 2 * (x * z - w * y)
-    R[..., 2, 1] = 2 * (y * z + w * x)
-    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return R
 
 
 def point_on_line_of_action(p_WC, f_W, tau_W) -> np.ndarray:
