@@ -1,82 +1,26 @@
 """`learned_dynamics`: a learned predictor drives the container-container contact.
 
-Drake's own contact between containers is filtered off (a SceneGraph collision
-filter over every container geometry); contact with the quay stays Drake's. One
-system, `learned_dynamics`, reads the bodies' poses and velocities, asks the
-predictor ONCE per step for every nearby container pair (one batched call), and
-applies the resulting wrenches as ExternallyAppliedSpatialForce (explicit: the force
-of step n is computed from the state of step n).
+Drake's own contact between containers is filtered off; contact with the quay stays Drake's.
+One system reads the bodies' poses and velocities, asks the predictor once per step for every
+nearby container pair (one batched call) and applies the wrenches as
+ExternallyAppliedSpatialForce (explicit: step n's force from step n's state).
 
-Force law, per pair (A = lower body index, B = higher; n points from A into B):
-- line of action: the predicted contact point p and normal n (predictor.predict);
-- normal force: a Winkler foundation on the overlap of the two contact faces (the
-  face pair of least overlap among the 6 face axes: geometry, not the predictor),
-  F_el = kappa * integral of max(0, depth(u, v)) dA over the overlap rectangle, with
-  depth linear in (u, v) (flat faces), integrated exactly along the steeper face axis
-  and by a GRID-point midpoint rule across it (testbed/effects/learned_dynamics/force_law.py). kappa
-  [Pa/m] is fitted to Drake's static hydroelastic force-vs-depth curve of each size
-  pair (testbed.contact.pair_plant.ContainerPair, aligned centred faces, overlap 0.05 to 5 mm;
-  `fit_pressure_stiffness`) at E = 1e8 Pa: 4.1017e7 Pa/m for every pair of 1CC/1AA/1AAA,
-  linear within 0.05 % over that range, i.e. E / (2 x 1.219 m) (two compliant boxes, each
-  a medial-axis field of depth half the 2.438 m width). The truth's containers are 1e9 Pa
-  since issue 12: a law that stiff is unstable in this explicit step at 1 ms on the light
-  and hard-landing scenes (testbed/effects/learned_dynamics/force_law.py KAPPA_MODULUS says what was
-  measured). So a scene with this effect runs its containers at the law's modulus
-  (KAPPA_MODULUS, 1e8 Pa: the effect's plan sets it on every geometry unless the scene
-  sets effects.contact.hydroelastic_modulus, which the law then follows, stability
-  check included), and twin runs (testbed.compare) run the truth at the same modulus. Against Drake's static force
-  the law is within 1.4 % for pitch/roll up to 3e-2 rad and offset faces (tests).
-  Why not k * (separating-axis depth): the SAT depth is the DEEPEST point, so a
-  1e-4 rad tilt of a 10 t box on a 20 ft box made k * d_SAT 2.80e5 N where Drake gives
-  1.07e5 N (1e-5 rad: +19 %); and a fitted stiffness is cheaper and more transparent
-  than a learned force head, with nothing left for one to learn on flat faces. Limits:
-  the overlap is the bounding rectangle of B's face projected on A's face (+15 % force
-  at 0.2 rad of yaw), and edge-on-edge contact is treated as a face contact.
-- Hunt-Crossley dissipation: F_n = F_el * max(0, 1 + d * rate), rate = penetration
-  rate along n at the point [m/s], d = `dissipation` [s/m].
-- Coulomb friction at the point (mu: the friction effect's, i.e. the models' 0.4; 0
-  without it), by default a stick: an anchored tangential spring-damper between two
-  material points (the pair's discrete state), k_t = stick_hw^2 m_red / h^2 and
-  damping ratio stick_damping, capped at mu F_n (then it slips and re-anchors). Why:
-  a regularised law f_t = -c v_t must cap c at stiction * m_red / h to stay explicit-
-  stable, and then creeps at T / c under a steady load T (measured: 1.4 mm in 0.6 s
-  for an empty box under 2.6 kN of wind; five_stack ~6 mm/min); the stick holds (8e-8
-  m). stick_hw = 0 selects that regularised law. Torsional friction about n is
-  regularised (slip_speed, capped likewise) with r = (2/3) sqrt(area / pi), a disc of
-  the overlap's area (stacks would yaw freely about a single contact point without it).
+Per pair (A = lower body index, B = higher; n from A into B): line of action = the predicted
+point and normal; normal force = a Winkler foundation kappa [Pa/m] over the face overlap
+(force_law.py; kappa fitted to Drake's static hydroelastic curve), Hunt-Crossley dissipation
+d [s/m]; Coulomb friction as an anchored stick (k_t, damping ratio) capped at mu F_n, and
+regularised torsional friction.
 
-Stability (checked when the scene is built; ScenarioError naming the pair): the
-explicit force is integrated by Drake's symplectic Euler step. For a spring-damper
-of natural frequency w and damping c on mass m this is stable when
-(h w)^2 + 2 h c / m < 4 (Jury criterion; h w < 2 without damping). Per pair:
-the normal mode w^2 = 2 k (1/m_A + 1/m_B) with k = kappa * (largest face overlap),
-the factor 2 bounding a body pressed from two sides (Gershgorin); the tilt mode
-w^2 = 2 kappa I_face (1/I_A + 1/I_B) with I_face = w^3 l / 12 of the face overlap
-about its short axis and I_A, I_B the bodies' inertias about the face's edge-parallel
-axis through the face centre; c = d * W, W the weight of the free containers at or
-above the pair's upper body (its static load). The tilt mode assumes the predictor
-moves its point with tilt as Drake's centre of pressure does.
+Assumptions: flat faces (depth linear across the overlap); the overlap is the bounding
+rectangle of B's face on A's face (+15 % force at 0.2 rad of yaw); edge-on-edge contact is
+treated as face contact; the containers run at the law's modulus (KAPPA_MODULUS, 1e8 Pa)
+unless the scene sets effects.contact.hydroelastic_modulus; the build refuses a pair whose
+explicit step would be unstable (Jury criterion, ScenarioError naming the pair); the tilt
+mode assumes the predictor moves its point with tilt as Drake's centre of pressure does.
 
-Records (with `contact_log`): the `closed_loop` table, one row per touching pair (fn > 0)
-per step: a, b, p_W (k, 3) [m], n_W (k, 3), fn (k,) [N], f_W (k, 3) [N] on b, area
-(k,) [m^2]; when `shadow_truth` is on, Drake's static hydroelastic answer at the same
-relative pose (a ContainerPair plant), SAMPLED: computed on steps 0, N, 2N, ... (N =
-`truth_every_steps`, default 20: every 20 ms at 1 ms) and absent on the others. Every row
-carries has_truth (k,) bool, p_W_truth, n_W_truth, fn_truth [N], point_error [m] and
-normal_error_deg, NaN where has_truth is False (testbed/effects/learned_dynamics/truth.py states
-each column; the summary counts the rows with a truth answer and takes its medians over
-those only). truth_every_steps = 1 gives every step's truth, as before. Cost, measured
-side by side in one process on nine_mixed_stack for 1 s (`python -m
-testbed.compare.logging_bench`, 2 shared cores, medians): truth on every step 7.3x the
-bare closed loop's wall time; sampled every 20 steps 2.1x, of which the logging without
-any truth is 1.7x (contact_log's own per-step records: poses, velocities, the quay's
-contact rows, signed distances).
-
-Cost (for `testbed compare`'s breakdown): the system adds up, with perf_counter, the time
-in its output's calc and the stick anchors' update (`calc_s`, the predictor's call
-included), in the predictor's call (`predict_s`) and in its records (`record_s`, the
-shadow truth included); `costs()` reads them, `reset_costs()` zeroes them (the
-constructor's warm-up call is not counted).
+README.md beside this file derives the law, its fit, the stability check, the records
+(the `closed_loop` table, sampled shadow truth) and the cost accounting, with the measured
+figures.
 """
 
 

@@ -1,81 +1,25 @@
 """A scene in MuJoCo: Scenario -> MJCF text -> MjModel, with two contact-parameter sets.
 
-What is translated (Drake side in brackets):
-- each container is a body with a free joint (a `fixed` one: no joint, welded), body frame C
-  at the geometric centre placed at X_WC, one box geom of the type's full size
-  [testbed/bodies/containers.py], `<inertial pos=com_offset mass diaginertia>` with the uniform
-  solid-box moments about the COM [testbed.bodies.models.solid_box_inertia, as written into the SDF];
-- the quay [sdf/ground/quay_ground.sdf, a 400 m slab, top face z = 0] is a plane at z = 0
-  (infinite: no shipped scene leaves the slab); a scene's ground_surface is a plane at its
-  height; generic `type: box` entries keep their size, inertia and contact values;
-- the initial state is the keyframe "initial": qpos = (p_WC, quaternion wxyz) and
-  qvel = (v_WC, R_WC^T w_WC). MuJoCo's free-joint velocity is the linear velocity of the BODY
-  FRAME ORIGIN in world and the angular velocity in the BODY frame (checked by finite
-  differences, tests/test_mujoco_engine.py); Drake's V_WC = [w_W, v_W] is of the same origin
-  C, so no COM shift is needed (`<compiler alignfree="false">` keeps the frame at C);
-- contact: one explicit `<pair>` per ground-container and container-container pair (every
-  geom has contype = conaffinity = 0), elliptic friction cones, friction = the scene's
-  mu_dynamic (Drake's discrete solvers use mu_dynamic only; friction.mu overrides it; no
-  `friction` effect: condim 1, frictionless); no `contact` effect: no pairs;
-- wind: the force of testbed/effects/wind.py, applied each step through xfrc_applied at C
-  (run.py); gravity -GRAVITY z.
-- the crane: the same ropes, trolley profile and twistlock release as testbed/effects/crane.py,
-  as applied forces (crane.py). Effects whose role is not PHYSICS (recorders,
-  observers, viewers: no dynamics) are ignored; a PHYSICS effect whose `translated_by` does
-  not name "mujoco" (learned_dynamics) raises UnsupportedSceneError with its
-  `untranslated_reason`;
-- not translated: contact.hydroelastic_margin (it widens Drake's contact detection only: a
-  20 t box rests 16.19 um deep with margin 0, 1e-4 and 1e-3 m alike; MuJoCo's contacts start
-  at distance 0), friction's mu_static (Drake's discrete solvers do not use it either).
+Each container is a free body (welded when `fixed`) with one box geom, body frame C at the
+geometric centre, the SDF's mass and solid-box inertia; the quay is a plane at z = 0 (a
+scene's ground_surface a plane at its height); contact is one explicit `<pair>` per
+ground-container and container-container pair with elliptic cones and the scene's mu_dynamic;
+wind and the crane are applied forces (run.py, crane.py). Effects whose role is not PHYSICS
+are ignored; a PHYSICS effect MuJoCo cannot translate (learned_dynamics) raises
+UnsupportedSceneError.
 
-Contact parameters (`params`):
-"default": MuJoCo's defaults, solref (0.02, 1), solimp (0.9, 0.95, 0.001, 0.5, 2), impratio 1.
-"matched": per pair, chosen so that MuJoCo's static penetration under load and its one-step
-  map of the contact mode equal those of Drake's discrete hydroelastic contact (the scene's
-  SDFs with effects.contact's modulus override). Derivation:
-  Drake. A compliant box's pressure rises from 0 at its surface to E at the medial axis, so
-  an overlap x gives p = E x / D_f with foundation depth D_f = half the smallest side
-  (DESIGN.md s.3). Over a footprint overlap A the pair is a spring k = E A / D_f against the
-  rigid quay and k = E A / (D_a + D_b) between two boxes (equal pressures, depths in
-  series). Dissipation: SAP is linear Kelvin-Voigt, c = tau k, tau = tau_a + tau_b (Drake
-  sums the relaxation times); TAMSI/similar/lagged (so 'auto' for hydroelastic) use
-  Hunt-Crossley, f = k x (1 + d xdot), i.e. c = d k x = d W at the static load W of the
-  upper body. Drake's discrete solvers are implicit Euler in the contact force (x and v at
-  the step's end), so a mode of mass m steps with determinant 1/D and trace (2 + h c/m)/D,
-  D = 1 + h^2 k/m + h c/m (drake_step_factor; measured on the 20 t box below: AR(2) fits
-  of Drake's settling give det 0.601 at 1e9 Pa/'similar' where 1/D = 0.604, and 1/D to 4
-  digits with SAP). At 1e9 Pa that numerical damping dominates: Hunt-Crossley's own
-  zeta = c/(2 sqrt(k m)) is 0.03 for a 20 t box, the step's det 0.60 (amplitude x0.78 a step).
-  MuJoCo. Measured on 4.0.0 (tests check it): with solref = (-S, -B) and a constant
-  impedance solimp = (d0, d0, ...), a contact row has R = (1 - d0)/d0 * A_mj with
-  A_mj = 1/m_a + 1/m_b (body_invweight0; 0 for the world or a welded body), reference
-  acceleration aref = -(B/d0) v - (S/d0) r and force f = (aref - J a)/R. MuJoCo's box-plane
-  and face-on-face box-box collisions return n = 4 contacts. For the pair's mode that is a
-  semi-implicit Euler step of stiffness k/lam and damping b per unit mass, with an added
-  mass lam = 1 + n d0/(1 - d0): det = 1 - h b, trace = 2 - h b - h^2 k/(m lam). Hence
-      S = (k / n) (1 - d0) A_mj               (static penetration W/k, whatever d0),
-      lam = D, i.e. d0/(1 - d0) = (D - 1)/n   (the trace too),
-      B = (1 - 1/D) (1 - d0) lam / (n h)      (det = 1/D; = d0/h when lam = D),
-  which is row by row Drake's implicit step: R = 1/(h (h k + c)) per unit of the n rows and
-  aref = -v/h - R k r, SAP's regularisation. It is stable at any h (lam >= 1 + (h w)^2).
-  d0 is kept >= MATCHED_IMPEDANCE = 0.1 (lam >= 1.44): MuJoCo's box-box routine returns 6 or
-  8 contacts instead of 4 for some steps on aligned, equal footprints (two_stack, bridge),
-  and with d0 = 0.01 each such step kicked the stack (ground force off by 5% at t = 1-2 s);
-  a floored pair keeps det = 1/D but its mode runs slow by sqrt(lam/D).
-  PairParams.mass_factor records lam; the run summary its maximum.
-  Worked numbers (E = 1e9 Pa, d = 5 s/m, 'similar', h = 1 ms): a 20 t 1CC on the quay:
-  A = 14.77 m^2, D_f = 1.219 m, k = 1.21e10 N/m, static penetration W/k = 0.0162 mm,
-  w = sqrt(k/m) = 778 rad/s, c = d W = 9.8e5 N s/m, D = 1 + 0.605 + 0.049 = 1.654:
-  d0 = 0.141, S = 1.30e5 1/s^2, B = 141 1/s. A 10 t 1CC on a 20 t one: k = E A/(2 D_f) =
-  6.06e9 N/m (0.0162 mm under its weight). At the earlier 1e8 Pa with SAP (tau = 2 ms):
-  k = 1.21e9 N/m, 0.162 mm, h w = 0.246, D = 1.18 (floored: d0 = 0.1, mode 11% slow).
-  impratio = 100 (frictional rows' R 1/100 of the normal rows': near-rigid sticking, where
-  SAP also regularises friction); the settling of two_stack (payload 0.8 m off centre) moves
-  its top box 4.6 um sideways in MuJoCo, 17.6 um in Drake (an earlier translation that
-  kept Hunt-Crossley's continuous zeta, without the step's damping, let the stack rock and
-  ratchet it 108 um). The areas are the initial footprint overlaps (the smaller footprint
-  for pairs not stacked at t = 0); the matched set always follows Drake's hydroelastic
-  parameters, also in a scene whose own contact model is point contact.
+Parameter sets (`params`): "default" (MuJoCo's own solref/solimp) and "matched": per pair,
+solref/solimp chosen so that MuJoCo's static penetration under load and its one-step map
+of the contact mode equal Drake's discrete hydroelastic contact (see README.md).
+
+Assumptions: Drake's compliant box has foundation depth half its smallest side; box-plane
+and face-on-face box-box contacts give 4 MuJoCo contacts (impedance floored at
+MATCHED_IMPEDANCE = 0.1 because some steps give 6 or 8); the pair areas are the initial
+footprint overlaps; not translated: hydroelastic_margin and mu_static (Drake's discrete
+solvers ignore mu_static too).
+
+README.md beside this file holds the translation rules in full, the derivation of the
+matched parameters with worked numbers, and the measurements behind each choice.
 """
 
 from __future__ import annotations
