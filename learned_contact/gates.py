@@ -21,7 +21,7 @@ Drake's point contact pass two of the absolute bounds (general normal median, ge
 MAE), so those alone could not catch a network that learned nothing; every "vs prior"
 gate is a ratio of the predictor's figure to the prior's on the same poses, and the
 prior scores 1.0 on each, so it fails them by construction of the bound (< 1).
-tests/test_learned_gates.py checks that every gate is failed by at least one of the
+tests/learned/test_learned_gates.py checks that every gate is failed by at least one of the
 simple alternatives (prior, Drake point contact).
 
 `evaluate_gates(seed)` returns {"gates": [{name, passed, value, threshold, unit,
@@ -40,7 +40,7 @@ from learned_contact.sources import load_predictor
 N_HELD_OUT = 400
 OUTSIDE_RANGES = {"max_tilt_deg": 10.0, "max_depth": 0.05}  # training: 5 deg, 0.03 m
 TRAINING_TILT_DEG, TRAINING_DEPTH = 5.0, 0.03
-# Every gate is failed by a simple alternative (tests/test_learned_gates.py): the prior
+# Every gate is failed by a simple alternative (tests/learned/test_learned_gates.py): the prior
 # (the network zeroed) or Drake's point contact. Figures measured on held-out seeds 0, 1,
 # 2 and 98765 (400 poses per set) are in the comments; each bound leaves room for that
 # seed-to-seed spread and no more.

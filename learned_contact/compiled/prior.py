@@ -5,7 +5,7 @@ Every function works on one pose with caller-provided scratch arrays, so a batch
 kernel allocates once per call, not once per pose. Frames and units as in
 learned_contact.prior: p (3,) [m] is B's centre in A, R (3, 3) B's axes in A
 (columns), hA, hB (3,) half extents [m]. The operation order follows the numpy
-reference so that both agree to rounding (tests/test_learned_compiled.py: 1e-9).
+reference so that both agree to rounding (tests/learned/test_learned_compiled.py: 1e-9).
 """
 
 from __future__ import annotations

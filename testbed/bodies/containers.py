@@ -16,7 +16,7 @@ import numpy as np
 from testbed.errors import UnknownChoiceError
 
 # [Pa] drake:hydroelastic_modulus of every container in sdf/containers/*.sdf (chosen by
-# `testbed study defaults`; sdf/README.md says why; tests/test_defaults_sweep.py checks the files)
+# `testbed study defaults`; sdf/README.md says why; tests/physics/test_defaults_sweep.py checks the files)
 HYDROELASTIC_MODULUS = 1.0e9
 
 

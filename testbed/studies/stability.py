@@ -3,7 +3,7 @@
 Each stress case is a function returning a Scenario (built in code, so the grid can
 vary contact model, approximation and time step); `check` simulates it with the
 contact log and judges it against stated criteria. The pytest stress suite
-(tests/test_stress.py) and `testbed study stability` share these definitions.
+(tests/physics/test_stress.py) and `testbed study stability` share these definitions.
 
 Criteria (with why):
 - finite: no NaN or inf in the state.

@@ -25,7 +25,7 @@ from testbed.physics import GRAVITY
 # a modelling error its gates judge (sdf/README.md).
 KAPPA_MODULUS = 1.0e8
 # [Pa/m] fitted pressure stiffness per unordered size pair at KAPPA_MODULUS (fit_pressure_stiffness;
-# tests/test_closed_loop.py re-fits it against Drake). Drake's pressure is linear in the modulus:
+# tests/closed_loop/test_closed_loop.py re-fits it against Drake). Drake's pressure is linear in the modulus:
 # pressure_stiffness() scales it to another modulus (what a law as stiff as that truth would use).
 FITTED_KAPPA = {frozenset(p): 4.1017e7 for p in
                 [("1CC",), ("1AA",), ("1AAA",), ("1CC", "1AA"), ("1CC", "1AAA"), ("1AA", "1AAA")]}

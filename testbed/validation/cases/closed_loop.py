@@ -9,11 +9,11 @@ Sections: a one-line verdict near the top of the report, and the table of figure
 the speed ratios and a verdict per scene.
 
 Scenes where the contact point or normal decides the outcome (issue 23; closed forms in
-their YAML and tests/test_closed_loop_scenes.py): overhang_hold (an empty 20 ft box with its
+their YAML and tests/closed_loop/test_closed_loop_scenes.py): overhang_hold (an empty 20 ft box with its
 centre of mass 0.1 m inside the welded lower box's edge: holds), overhang_tip (0.1 m outside:
 tips about the edge, 10 deg at ~1 s) and stack_slide_rest (slides 1.147 m to rest: a tilted
 normal changes the stopping distance). On the overhang pair an outcome gate adds: the learned
-run's box tips iff the truth's does. tests/test_closed_loop_alternatives.py shows that simple
+run's box tips iff the truth's does. tests/closed_loop/test_closed_loop_alternatives.py shows that simple
 alternatives (points biased 5 / 30 cm toward the overhang, normals tilted 1 deg, the geometric
 prior alone, Drake point contact's answer) fail these gates, and that the shipped predictor and
 Drake hydroelastic's own static answer pass them.

@@ -19,7 +19,7 @@ from testbed.validation.gates import Gate
 
 # Rest figures (force balance, resting penetration) are averaged over the last
 # REST_WINDOW_S of the run: point contact hops between corners step to step, and
-# 0.5 s holds several hops (the same window as tests/test_physics_rest.py).
+# 0.5 s holds several hops (the same window as tests/physics/test_physics_rest.py).
 REST_WINDOW_S = 0.5
 # At rest a container pair overlaps ~0.25 mm per contact under its own weight (sdf/README.md);
 # 5 mm at rest means the contact is far too soft for stacking (9 contacts would sink 4.5 cm).

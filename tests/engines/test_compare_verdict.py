@@ -14,7 +14,7 @@ from testbed.commands.scenes import container_contact
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.validation.cases import closed_loop
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 GATES = ["no divergence", "final position", "final angle", "max penetration", "energy"]
 
 

@@ -25,7 +25,7 @@ from learned_contact.gates import GeometricPrior  # noqa: E402
 from learned_contact.interface import CLIP_MARGIN  # noqa: E402
 
 SIZE_20 = np.array([6.058, 2.438, 2.591])
-TESTS = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parents[1]
 
 
 def _poses(n=64, seed=3):

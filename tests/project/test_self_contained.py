@@ -8,7 +8,7 @@ from pathlib import Path
 
 from testbed.calibration.data import SHIPPED_TOSSES, load_tosses
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 # the folder beside the repository that a user's clone does not have (spelt in parts so that
 # this file does not match its own pattern)
 _BESIDE = "sha" + "red"

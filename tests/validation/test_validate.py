@@ -14,7 +14,7 @@ from testbed import cli
 from testbed.validation import Case, is_timing_key, validate
 from testbed.validation.suites import suite
 
-SCHEMA = Path(__file__).resolve().parent.parent / "testbed" / "validation" / "report_schema.json"
+SCHEMA = Path(__file__).resolve().parents[2] / "testbed" / "validation" / "report_schema.json"
 
 
 def _deterministic(metrics: dict) -> dict:

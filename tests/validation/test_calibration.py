@@ -25,7 +25,7 @@ from testbed.cli import main
 from testbed.physics import GRAVITY
 
 DT = 1.0 / 148.0  # [s] the data's frame period
-CALIBRATION_DIR = Path(__file__).resolve().parent.parent / "testbed" / "calibration"
+CALIBRATION_DIR = Path(__file__).resolve().parents[2] / "testbed" / "calibration"
 DATA = SHIPPED_TOSSES  # the even-numbered DAIR Lab tosses shipped in the package
 
 

@@ -23,7 +23,7 @@ from learned_contact.sampling import sample
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 TOL = 1e-9  # [m] / [-]: see the module docstring
 HELD_OUT_SEED = 987  # sampling seeds used by training: 10 * seed + 1, 2; gates: + 5, 6
 

@@ -16,7 +16,7 @@ pytest.importorskip("onnxruntime", reason="pip install onnxruntime==1.30.0")
 
 import bench_models as bm  # noqa: E402
 
-TESTS = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")

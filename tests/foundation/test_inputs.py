@@ -1,7 +1,7 @@
 """Inputs that used to slip through the scene loader, round trips of written scenes, and
 generated bad-input tests: every mutated scene either loads or fails with one ScenarioError,
 and every generated hostile file (alias bomb, deep nesting, duplicate key, oversized) fails
-with one within 2 s (tests/test_hostile_files.py has the non-regular files and the CLI)."""
+with one within 2 s (tests/foundation/test_hostile_files.py has the non-regular files and the CLI)."""
 
 import copy
 import math

@@ -27,7 +27,7 @@ from testbed.scenario import MAX_SCENE_BYTES, load_scenario
 from testbed.validation.cases import Case
 from testbed.validation.executors import case_path, load_record
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 # The bounds: the refusal itself (timed inside the child, after its imports) and the
 # whole child's peak resident memory (pydrake's import alone is about 110 MB of it).
 WALL_LIMIT_S = 2.0

@@ -14,7 +14,7 @@ import pytest
 from testbed.cli import main
 from testbed.compare import costs
 
-TILTED_DROP = Path(__file__).parent / "scenes" / "tilted_drop.yaml"
+TILTED_DROP = Path(__file__).parents[1] / "scenes" / "tilted_drop.yaml"
 PARTS_S = ("drake_step_s", "learned_system_s", "predictor_s", "recording_s")
 
 

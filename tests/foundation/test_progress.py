@@ -11,7 +11,7 @@ from test_bad_input import GOOD
 
 from testbed.progress import OFF_TTY_INTERVAL_S, progress
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_testbed_run_with_stderr_to_a_file_writes_few_lines(tmp_path):

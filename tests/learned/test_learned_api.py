@@ -12,7 +12,7 @@ from learned_contact import PredictorInputError, WeightsError, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.errors import TestbedError
 
-REPO = Path(__file__).resolve().parent.parent
+REPO = Path(__file__).resolve().parents[2]
 SIZE_1AA = np.array(CONTAINER_TYPES["1AA"].size)
 SIZE_1CC = np.array(CONTAINER_TYPES["1CC"].size)
 

@@ -141,7 +141,7 @@ def test_shipped_models_carry_the_chosen_modulus():
 
     from testbed.bodies.containers import HYDROELASTIC_MODULUS
 
-    files = sorted((Path(__file__).resolve().parent.parent / "sdf" / "containers").glob("*.sdf"))
+    files = sorted((Path(__file__).resolve().parents[2] / "sdf" / "containers").glob("*.sdf"))
     assert len(files) == 3
     for f in files:
         (tag,) = [e for e in ET.parse(f).iter() if e.tag.endswith("hydroelastic_modulus")]

@@ -27,7 +27,7 @@ from testbed.geometry.rotations import rotation_from_quaternion
 from testbed.physics import GRAVITY
 
 MODELS = ("hydroelastic", "point")
-SDF = Path(__file__).resolve().parents[1] / "sdf"
+SDF = Path(__file__).resolve().parents[2] / "sdf"
 
 
 def _sdf_value(path: Path, name: str) -> float:
