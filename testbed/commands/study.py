@@ -82,10 +82,11 @@ def _query(args, out: Path) -> None:
 
 
 def _sim(args, out: Path) -> None:
+    from testbed.drake_support import available
     from testbed.studies.sim import effect_costs, sweep
 
     steps = [1e-3, 3e-3, 1e-2] if args.quick else [2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2]
-    rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=["sap", "tamsi", "similar", "lagged"],
+    rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=available(("sap", "tamsi", "similar", "lagged")),
                  time_steps=steps, reference_step=1e-4, duration=0.5 if args.quick else 1.0, progress=not args.quiet)
     costs = effect_costs(args.scene, duration=0.3 if args.quick else 1.0)
     write_atomic(out / "sim.json", json.dumps({"sweep": rows, "effect_costs": costs}, indent=1))
@@ -100,11 +101,12 @@ def _defaults(args, out: Path) -> None:
     import time
 
     from testbed.document import to_html, to_markdown
+    from testbed.drake_support import available
     from testbed.effects.contact import APPROXIMATIONS as CONTACT_APPROXIMATIONS
     from testbed.studies import defaults as d
 
     axes = {"moduli": _floats(args.moduli, "--moduli", d.MODULI),
-            "approximations": _choices(args.approximations, "--approximations", CONTACT_APPROXIMATIONS, d.APPROXIMATIONS),
+            "approximations": _choices(args.approximations, "--approximations", available(CONTACT_APPROXIMATIONS), d.APPROXIMATIONS),
             "margins": _floats(args.margins, "--margins", d.MARGINS, minimum=0.0),
             "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
             "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}

@@ -76,6 +76,16 @@ Contact parameters (`params`):
   ratchet it 108 um). The areas are the initial footprint overlaps (the smaller footprint
   for pairs not stacked at t = 0); the matched set always follows Drake's hydroelastic
   parameters, also in a scene whose own contact model is point contact.
+
+Solver path (issue 21): MuJoCo 4.0.0, the newest release the registry serves here (4.0.1 is
+not there), factors the Newton solver's Hessian wrongly on its SPARSE path (MuJoCo issue
+3767, fixed in 4.0.1); the sparse path is taken under the default jacobian="auto" from
+nv >= 60, i.e. 10 free containers. Every engine-comparison scene (the default and full
+suites: at most 9 free containers, nv <= 54) ran the dense path: auto and dense gave
+bitwise-equal trajectories, Newton took at most 10 iterations a step (cap 100), and no
+MuJoCo warning was raised; forcing the sparse path moved sliding scenes by up to 27 mm
+(stack_slide_off, matched) and resting ones by < 1e-11 m. So the MJCF sets
+jacobian="dense": no shipped figure changes, and a larger scene cannot reach the bug.
 """
 
 from __future__ import annotations
@@ -343,7 +353,7 @@ def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: 
     mjcf = (
         f'<mujoco model="{scenario.name}">\n'
         '  <compiler angle="radian" alignfree="false"/>\n'
-        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}"/>\n'
+        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}" jacobian="dense"/>\n'
         f'  <worldbody>\n{ground}' + "\n".join(bodies) + "\n  </worldbody>\n"
         + ("  <contact>\n" + "\n".join(pair_lines) + "\n  </contact>\n" if pair_lines else "")
         + (f"  <keyframe>\n{key}  </keyframe>\n" if key else "")
