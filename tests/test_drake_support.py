@@ -93,3 +93,17 @@ def test_the_validation_summary_names_the_installed_drake_and_mujoco(tmp_path):
     assert env["drake"] == drake_version()
     line = f"Drake {drake_version()}, MuJoCo {env['mujoco']}, Python "
     assert line in (run / "summary.md").read_text() and line in (run / "index.html").read_text()
+
+
+def test_the_defaults_sweep_refuses_tamsi_where_drake_lacks_it(tmp_path, capsys):
+    """`testbed study defaults --approximations tamsi` under Drake >= 1.57: one line naming the
+    installed Drake, exit 2, before any case runs (under 1.51.1 TAMSI is a valid axis value)."""
+    if has_tamsi():
+        assert missing_approximation("tamsi") is None
+        return
+    code = cli.main(["study", "defaults", "--approximations", "sap,tamsi", "--cases", "near_parallel", "--quiet",
+                     "--out", str(tmp_path / "study")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert f"--approximations: 'tamsi' is not available in the installed Drake {drake_version()}" in err
+    assert not (tmp_path / "study" / "defaults_rows.jsonl").exists()

@@ -101,15 +101,18 @@ def _defaults(args, out: Path) -> None:
     import time
 
     from testbed.document import to_html, to_markdown
-    from testbed.drake_support import available
+    from testbed.drake_support import missing_approximation
     from testbed.effects.contact import APPROXIMATIONS as CONTACT_APPROXIMATIONS
     from testbed.studies import defaults as d
 
     axes = {"moduli": _floats(args.moduli, "--moduli", d.MODULI),
-            "approximations": _choices(args.approximations, "--approximations", available(CONTACT_APPROXIMATIONS), d.APPROXIMATIONS),
+            "approximations": _choices(args.approximations, "--approximations", CONTACT_APPROXIMATIONS, d.APPROXIMATIONS),
             "margins": _floats(args.margins, "--margins", d.MARGINS, minimum=0.0),
             "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
             "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}
+    missing = [m for m in map(missing_approximation, axes["approximations"]) if m]
+    if missing:  # 'tamsi' under Drake >= 1.57: say so before anything runs
+        raise TestbedError(f"--approximations: {missing[0]}")
     cases = _choices(args.cases, "--cases", d.CASE_NAMES, ("near_parallel",) if args.quick else d.CASE_NAMES)
     toss_data = Path(args.toss_data) if d.TOSS_CASE in cases else None  # checked in run()
     start, partial = time.perf_counter(), out / "defaults_rows.jsonl"
