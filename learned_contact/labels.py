@@ -25,6 +25,7 @@ import numpy as np
 from learned_contact import cache
 from learned_contact.prior import contact_type
 from learned_contact.sampling import Proposals, sample
+from testbed.drake_support import drake_version
 from testbed.progress import progress as progress_bar
 
 LABEL_VERSION = 2  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus)
@@ -190,7 +191,9 @@ def make_dataset(distribution: str, n: int, seed: int, *, types=("1CC", "1AA", "
     """Samples n proposals, labels them with Drake (cached on disk) and returns the
     Dataset of those with a contact surface. ranges: sampling.sample's max_depth /
     max_tilt_deg (default: the training ranges)."""
-    key = cache.key("labels", distribution, n, seed, tuple(types), LABEL_VERSION, *sorted(ranges.items()))
+    # the installed Drake's version too: labels are Drake's numerics (1.51.1 and 1.58.0 gave
+    # bitwise-equal labels on 3000 poses, issue 21, but one cache serves both interpreters)
+    key = cache.key("labels", distribution, n, seed, tuple(types), LABEL_VERSION, drake_version(), *sorted(ranges.items()))
     rows = cache.load(key) if use_cache else None
     props = sample(distribution, n, seed, types, **ranges)
     if rows is None:

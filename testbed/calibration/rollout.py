@@ -22,12 +22,13 @@ from pydrake.systems.framework import DiagramBuilder
 from testbed.bodies import models as model_loading
 from testbed.calibration.data import CUBE_INERTIA, CUBE_MASS, CUBE_WIDTH, TABLE_HEIGHT, Toss
 from testbed.calibration.initial_state import first_frame, initial_state
+from testbed.drake_support import missing_approximation
 from testbed.errors import SimulationError, TestbedError
 from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.simulation import advance
 
 MODELS = ("point", "hydroelastic")
-APPROXIMATIONS = ("sap", "similar", "lagged", "tamsi")
+APPROXIMATIONS = ("sap", "similar", "lagged", "tamsi")  # 'tamsi' only up to Drake 1.56 (testbed.drake_support)
 FAILED_TOSS_ERROR = 1.0  # [cube widths] charged for a rollout whose solver failed (worse than any real fit)
 
 
@@ -61,6 +62,9 @@ class CubeTossParams:
             raise TestbedError(f"model: unknown {self.model!r}; expected one of: {', '.join(MODELS)}")
         if self.approximation not in APPROXIMATIONS:
             raise TestbedError(f"approximation: unknown {self.approximation!r}; expected one of: {', '.join(APPROXIMATIONS)}")
+        missing = missing_approximation(self.approximation)
+        if missing:
+            raise TestbedError(f"approximation: {missing}")
         for name in ("time_step", "mu", "point_contact_stiffness", "hydroelastic_modulus", "stiction_tolerance"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):

@@ -82,10 +82,11 @@ def _query(args, out: Path) -> None:
 
 
 def _sim(args, out: Path) -> None:
+    from testbed.drake_support import available
     from testbed.studies.sim import effect_costs, sweep
 
     steps = [1e-3, 3e-3, 1e-2] if args.quick else [2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2]
-    rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=["sap", "tamsi", "similar", "lagged"],
+    rows = sweep(args.scene, models=["hydroelastic", "point"], approximations=available(("sap", "tamsi", "similar", "lagged")),
                  time_steps=steps, reference_step=1e-4, duration=0.5 if args.quick else 1.0, progress=not args.quiet)
     costs = effect_costs(args.scene, duration=0.3 if args.quick else 1.0)
     write_atomic(out / "sim.json", json.dumps({"sweep": rows, "effect_costs": costs}, indent=1))
@@ -100,6 +101,7 @@ def _defaults(args, out: Path) -> None:
     import time
 
     from testbed.document import to_html, to_markdown
+    from testbed.drake_support import missing_approximation
     from testbed.effects.contact import APPROXIMATIONS as CONTACT_APPROXIMATIONS
     from testbed.studies import defaults as d
 
@@ -108,6 +110,9 @@ def _defaults(args, out: Path) -> None:
             "margins": _floats(args.margins, "--margins", d.MARGINS, minimum=0.0),
             "time_steps": _floats(args.time_steps, "--time-steps", d.TIME_STEPS),
             "stiction_tolerances": _floats(args.stiction_tolerances, "--stiction-tolerances", d.STICTION_TOLERANCES)}
+    missing = [m for m in map(missing_approximation, axes["approximations"]) if m]
+    if missing:  # 'tamsi' under Drake >= 1.57: say so before anything runs
+        raise TestbedError(f"--approximations: {missing[0]}")
     cases = _choices(args.cases, "--cases", d.CASE_NAMES, ("near_parallel",) if args.quick else d.CASE_NAMES)
     toss_data = Path(args.toss_data) if d.TOSS_CASE in cases else None  # checked in run()
     start, partial = time.perf_counter(), out / "defaults_rows.jsonl"

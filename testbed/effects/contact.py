@@ -8,10 +8,13 @@ import dataclasses
 import math
 import typing
 
+from testbed.drake_support import missing_approximation
 from testbed.effects import register
 from testbed.effects.base import Effect, ModelPlan, Role
 
 CONTACT_MODELS = ("hydroelastic", "point", "hydroelastic_with_fallback")
+# Every name a scene may spell; 'tamsi' only where the installed Drake has it (Drake 1.57 removed
+# it: testbed.drake_support; a scene asking for it otherwise fails check() naming the version).
 APPROXIMATIONS = ("auto", "sap", "tamsi", "similar", "lagged")
 
 
@@ -51,6 +54,9 @@ class ContactEffect(Effect):
             raise self.fail("model", f"unknown contact model {self.config.model!r}; expected one of: {', '.join(CONTACT_MODELS)}")
         if self.config.approximation not in APPROXIMATIONS:
             raise self.fail("approximation", f"unknown discrete approximation {self.config.approximation!r}; expected one of: {', '.join(APPROXIMATIONS)}")
+        missing = missing_approximation(self.config.approximation)
+        if missing:
+            raise self.fail("approximation", missing)
         margin = self.config.hydroelastic_margin
         if margin is not None and not (math.isfinite(margin) and margin >= 0):
             raise self.fail("hydroelastic_margin", f"expected a non-negative length [m], got {margin}")

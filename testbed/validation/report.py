@@ -120,7 +120,7 @@ def sections(metrics: dict, records: list[dict]) -> list[Section]:
     out.append(Section(None, [Text(f"{metrics['created']}; Drake {env['drake']}, MuJoCo {env.get('mujoco', 'unknown')}, "
                                    f"Python {env['python']}, {env['cpus']} "
                                    "CPUs. Timings are indicative: compare ratios within this report, not absolute "
-                                   "times across machines.")], order=99, brief=False))
+                                   "times across machines.")], order=99, brief=True))  # summary.md too: which Drake ran
     return out
 
 

@@ -86,6 +86,7 @@ def test_reported_figures_exist(figures):
 PAPER_BASELINE_MAE = 0.35
 
 
+@pytest.mark.torch
 def test_paper_baseline_trains_to_stated_mae(data):
     general = data["general"]
     train = make_dataset("general", 2000, 987_653, progress=False, use_cache=False)

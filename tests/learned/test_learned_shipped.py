@@ -38,6 +38,7 @@ def test_metrics_json_is_what_the_shipped_weights_score():
 
 
 @pytest.mark.slow
+@pytest.mark.torch
 def test_train_seed_0_reproduces_the_shipped_weights(tmp_path):
     """`testbed train --seed 0` end to end into a scratch folder (labels, both networks,
     evaluation): the improved network's weights and its external figures match the

@@ -7,6 +7,8 @@ from learned_contact import load_predictor
 from learned_contact.paper_mlp import PaperConfig
 from learned_contact.training import TrainConfig, train_default
 
+pytestmark = pytest.mark.torch  # trains with torch (tests/conftest.py: skipped where it is not installed)
+
 TINY = TrainConfig(n_general=1500, n_stacking=1500, n_test_general=300, n_test_stacking=300, epochs=3,
                    hidden=(32, 32), paper=PaperConfig(n_train=500, n_val=300, n_test=300, restarts=1, max_epochs=3))
 

@@ -169,6 +169,7 @@ def test_export_leaves_no_temporary_file(exported):
     assert sorted(p.name for p in folder.iterdir()) == ["improved.onnx", "paper.onnx"]
 
 
+@pytest.mark.torch
 def test_torch_model_export_matches_torch(tmp_path):
     torch = pytest.importorskip("torch")
 
@@ -249,6 +250,7 @@ def test_round_trip_through_the_bench_loader(exported, kind):
                                atol=DEPTH_TOLERANCE)
 
 
+@pytest.mark.torch
 def test_torch_model_exported_then_benched(tmp_path):
     """The README's path for a user's model: a torch module -> export_torch_model -> the
     bench's loader answers like the module (and checks it like any model)."""

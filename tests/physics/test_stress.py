@@ -12,7 +12,9 @@ the measured figure; `slow` marks the longest entries (CI runs them all).
 import numpy as np
 import pytest
 
-from testbed.studies.stability import check, matrix_cases, resting_stack, run_matrix_entry, wobble
+from testbed.drake_support import has_tamsi, missing_approximation
+from testbed.errors import ScenarioError
+from testbed.studies.stability import MATRIX_APPROXIMATIONS, check, matrix_cases, resting_stack, run_matrix_entry, wobble
 
 # Why the known failures fail (each entry below carries its measured figure).
 HYDRO_EDGE = ("hydroelastic: a compliant box's pressure field (medial axis, DESIGN.md s.3) is 0 at its surface and "
@@ -66,7 +68,8 @@ UNITS = {"penetration": ("max_penetration_m", 1e3), "drift": ("drift_per_minute_
 
 def _params():
     out = []
-    for name, kw in matrix_cases(quick=False):
+    # the whole axis, TAMSI included: where Drake lacks it the entry tests the clear error instead
+    for name, kw in matrix_cases(quick=False, approximations=MATRIX_APPROXIMATIONS):
         key = _key(name, kw)
         marks = []
         if kw.get("time_step", 1e-3) < 1e-3 or name == "drop_on_stack":
@@ -94,6 +97,11 @@ def pinned_failure_check(row: dict, known) -> str | None:
 
 @pytest.mark.parametrize("name, kw, known", _params())
 def test_stress_entry_is_stable(name, kw, known):
+    missing = missing_approximation(kw.get("approximation", "auto"))
+    if missing:  # Drake >= 1.57 has no TAMSI: the scene must say so, naming the installed version
+        with pytest.raises(ScenarioError, match="effects.contact.approximation: 'tamsi' is not available in the installed Drake 1\\."):
+            run_matrix_entry(name, kw)
+        return
     row = run_matrix_entry(name, kw)
     if known is None:
         assert row.get("finite", True)
@@ -103,6 +111,15 @@ def test_stress_entry_is_stable(name, kw, known):
     assert problem is None, problem
     if not row["stable"]:
         pytest.xfail(f"{known[0]}: measured {row['failed']}")
+
+
+def test_the_matrix_lists_tamsi_only_where_drake_has_it():
+    """The study's grid (matrix_cases' default) varies the approximation over what the installed
+    Drake offers: TAMSI up to Drake 1.56, and the quick grid's one varied approximation is TAMSI or lagged."""
+    full = {kw.get("approximation") for _, kw in matrix_cases(quick=False)} - {None}
+    quick = {kw.get("approximation") for _, kw in matrix_cases(quick=True)} - {None}
+    assert full == ({"sap", "tamsi", "lagged"} if has_tamsi() else {"sap", "lagged"})
+    assert quick == ({"tamsi"} if has_tamsi() else {"lagged"})
 
 
 def test_pinned_failure_check_catches_worse_other_and_stale():

@@ -22,6 +22,8 @@ from testbed.calibration.params_file import from_fragment, to_fragment
 from testbed.calibration.rollout import CubeTossParams, TossSimulator, initial_velocity
 from testbed.calibration.split import duplicate_groups, train_test_split
 from testbed.cli import main
+from testbed.drake_support import has_tamsi
+from testbed.errors import TestbedError
 from testbed.physics import GRAVITY
 
 DT = 1.0 / 148.0  # [s] the data's frame period
@@ -249,13 +251,29 @@ def test_params_file_round_trips_and_is_a_scene(tmp_path):
     from testbed.builder import build_scene
     from testbed.scenario import load_scenario
 
-    params = CubeTossParams(model="point", approximation="tamsi", mu=0.21, point_contact_stiffness=3e5, relaxation_time=2e-3,
+    # TAMSI (no default value) where the installed Drake has it, else lagged (Drake >= 1.57)
+    params = CubeTossParams(model="point", approximation="tamsi" if has_tamsi() else "lagged", mu=0.21, point_contact_stiffness=3e5, relaxation_time=2e-3,
                             table_height=-0.001, corner_spheres=1e-3, time_step=DT / 14, stiction_tolerance=2e-3)
     path = tmp_path / "params.yaml"
     path.write_text(to_fragment(params, "a comment"))
     assert from_fragment(path) == params
     scene = build_scene(load_scenario(path))
     assert "cube" in scene.body_names
+
+
+def test_tamsi_params_check_against_the_installed_drake(tmp_path, capsys):
+    """approximation: tamsi is valid up to Drake 1.56; from 1.57 (no TAMSI) the parameters, the
+    params file and `calibrate fit --approximation tamsi` fail with one line naming the version."""
+    params = CubeTossParams(model="point", approximation="tamsi")
+    if has_tamsi():
+        params.check()
+        return
+    with pytest.raises(TestbedError, match=r"^approximation: 'tamsi' is not available in the installed Drake 1\."):
+        params.check()
+    data, _ = _small_file(tmp_path)
+    assert main(["calibrate", "fit", "--data", str(data), "--out", str(tmp_path / "fit"), "--approximation", "tamsi",
+                 "--workers", "1", "--budget", "1"]) == 2
+    assert "'tamsi' is not available in the installed Drake" in capsys.readouterr().err
 
 
 def test_calibrate_evaluate_writes_the_metrics(tmp_path):

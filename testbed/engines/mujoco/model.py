@@ -16,7 +16,8 @@ Assumptions: Drake's compliant box has foundation depth half its smallest side; 
 and face-on-face box-box contacts give 4 MuJoCo contacts (impedance floored at
 MATCHED_IMPEDANCE = 0.1 because some steps give 6 or 8); the pair areas are the initial
 footprint overlaps; not translated: hydroelastic_margin and mu_static (Drake's discrete
-solvers ignore mu_static too).
+solvers ignore mu_static too); the MJCF forces MuJoCo's dense Jacobian (4.0.0's sparse
+Newton factorisation is wrong, MuJoCo issue 3767; README.md, "Solver path").
 
 README.md beside this file holds the translation rules in full, the derivation of the
 matched parameters with worked numbers, and the measurements behind each choice.
@@ -286,7 +287,7 @@ def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: 
     mjcf = (
         f'<mujoco model="{scenario.name}">\n'
         '  <compiler angle="radian" alignfree="false"/>\n'
-        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}"/>\n'
+        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}" jacobian="dense"/>\n'
         f'  <worldbody>\n{ground}' + "\n".join(bodies) + "\n  </worldbody>\n"
         + ("  <contact>\n" + "\n".join(pair_lines) + "\n  </contact>\n" if pair_lines else "")
         + (f"  <keyframe>\n{key}  </keyframe>\n" if key else "")

@@ -22,6 +22,7 @@ from learned_contact import cache
 from learned_contact.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
 from learned_contact.sampling import Proposals
 from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.drake_support import drake_version
 from testbed.geometry.rotations import rotation_from_rpy
 
 POSE_SETS = ("stacking", "general", "near_parallel")
@@ -93,7 +94,7 @@ def make_pose_sets(n_poses: int, seed: int, *, progress: bool = True, use_cache:
         ds = make_dataset(dist, n_poses, s, types=TYPES, workers=1, progress=progress, use_cache=use_cache)
         out[dist] = _from_dataset(dist, ds)
     props, tilt = near_parallel_proposals(n_poses, s)
-    key = cache.key("study-near-parallel", n_poses, s, TYPES, LABEL_VERSION, NEAR_VERSION)
+    key = cache.key("study-near-parallel", n_poses, s, TYPES, LABEL_VERSION, NEAR_VERSION, drake_version())  # Drake's labels
     rows = cache.load(key) if use_cache else None
     if rows is None:
         rows = label_proposals(props, workers=1, progress=progress)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from testbed.document import Figure, Section, Text, png, pyplot, table
+from testbed.drake_support import available
 from testbed.engines import alternatives, engine as registered
 from testbed.studies.sim import sweep
 from testbed.validation.cases import Case, CaseKind, register
@@ -52,10 +53,10 @@ class SimSweepCase(CaseKind):
             return [_case("two_stack", "point", "sap", [2e-3, 5e-3], 0.05, reference_step=1e-3)]
         if suite == "default":
             return [_case("two_stack", m, a, [3e-4, 1e-3, 3e-3, 1e-2], 0.5)
-                    for m in ("hydroelastic", "point") for a in ("sap", "tamsi")] + engine_cases()
+                    for m in ("hydroelastic", "point") for a in available(("sap", "tamsi"))] + engine_cases()
         if suite == "full":
             return [_case(s, m, a, [2e-4, 5e-4, 1e-3, 2e-3, 5e-3, 1e-2], 1.0) for s in ("two_stack", "five_stack")
-                    for m in ("hydroelastic", "point") for a in ("sap", "tamsi", "similar", "lagged")] + \
+                    for m in ("hydroelastic", "point") for a in available(("sap", "tamsi", "similar", "lagged"))] + \
                 engine_cases(ENGINE_SCENES + (("five_stack", 1.0), ("bridge", 1.0)), [2e-4] + ENGINE_STEPS)
         return []
 
