@@ -138,3 +138,34 @@ def test_the_band_is_the_same_on_every_path():
     from learned_contact.compiled import kernels
 
     assert kernels.SYMMETRY_BAND == SYMMETRY_BAND
+
+
+def test_mirror_training_rows_are_the_same_poses_in_the_neighbouring_frames():
+    """TrainConfig.mirror: every labelled pose within the band of a plane is added once per
+    neighbouring frame the predictor blends in; each added row describes the same physical
+    pose (its geometric estimate, mapped back to A's frame, is the own frame's to rounding)
+    with its label reflected into that frame."""
+    import dataclasses
+
+    from learned_contact.encodings import frame_blend
+    from learned_contact.labels import make_dataset
+    from learned_contact.training import improved_inputs
+
+    ds = make_dataset("stacking", 60, 20_201, progress=False)
+    p = ds.p_AB.copy()
+    p[:30, 1] = np.linspace(-0.9, 0.9, 30) * SYMMETRY_BAND  # half of them inside the y band
+    ds = dataclasses.replace(ds, p_AB=p)
+    x0, pe0, _, pc0, _ = improved_inputs(ds)
+    x, pe, ne, pc, nc, depth = improved_inputs(ds, mirror=True, with_depth=True)
+    extra = [(sigma, np.flatnonzero(coef > 0.0)) for sigma, coef in frame_blend(p)[1:]]
+    assert len(x) == len(ds) + sum(len(rows) for _, rows in extra) and len(x) > len(ds) + 25
+    np.testing.assert_array_equal(x[:len(ds)], x0)
+    np.testing.assert_array_equal(depth[:len(ds)], ds.depth)
+    S = np.where(p >= 0.0, 1.0, -1.0)
+    at = len(ds)
+    for sigma, rows in extra:
+        block = slice(at, at + len(rows))
+        np.testing.assert_allclose(sigma[rows] * pe[block], S[rows] * pe0[rows], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(sigma[rows] * pc[block], ds.cop[rows], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(sigma[rows] * nc[block], ds.normal[rows], rtol=0, atol=1e-12)
+        at += len(rows)
