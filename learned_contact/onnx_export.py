@@ -25,8 +25,10 @@ What the exported graphs hold (standard ONNX operators, opset 17, no custom ops)
   the 15-axis separating-axis test, the geometric prior (reference face, B's
   incident face clipped by Sutherland-Hodgman with the fixed 9-vertex budget, the
   depth-weighted centroid, the edge-edge midpoint where the patch is empty), the 91
-  features, the 64-64 SiLU MLP and the correction of the prior. Nothing is left for
-  the simulator to add. float64 inside, because the geometry branches (the least
+  features, the 64-64 SiLU MLP and the correction of the prior, with the octant-plane
+  blend of encodings.frame_blend (the poses within SYMMETRY_BAND of one of A's planes
+  answered in the neighbouring frames too, gathered into one batch and summed back
+  with ScatterND). Nothing is left for the simulator to add. float64 inside, because the geometry branches (the least
   overlap of 15 axes, the reference face, which clipped vertices are kept) and its
   depth-weighted patch amplifies rounding on shallow contacts: the same graph in
   float32 differs from the compiled path by up to 3.8e-4 m and 0.035 deg (800

@@ -23,6 +23,7 @@ from learned_contact.mlp import NumpyMLP
 from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets, predict_paper, train_paper
 from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
 from learned_contact.report import write_report
+from learned_contact.sampling import MAX_DEPTH
 from testbed.containers import CONTAINER_TYPES
 from testbed.progress import progress as progress_bar
 
@@ -93,7 +94,7 @@ def improved_inputs(ds: Dataset, mirror: bool = False, with_depth: bool = False)
     every pose within encodings.SYMMETRY_BAND of a reflection plane answered in each
     neighbouring octant's frame that the predictor blends in there (frame_blend), so
     the network learns both frames alike (rows appended after the n canonical ones).
-    with_depth: a sixth array, each row's target penetration depth (m,) [m]."""
+    with_depth: a sixth array, each row's target penetration depth [m]."""
     S, p_c, R_c = canonicalise(ds.p_AB, ds.R_AB)
     x, point_est, normal_est = features(p_c, R_c, 0.5 * ds.size_A, 0.5 * ds.size_B)
     out = [(x, point_est, normal_est, S * ds.cop, S * ds.normal, ds.depth)]
@@ -118,7 +119,7 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
     torch.set_num_threads(config.torch_threads)
     x, pe, ne, pc, nc, dw = improved_inputs(train, mirror=config.mirror, with_depth=True)
     xv, pev, nev, pcv, ncv, dwv = improved_inputs(val, with_depth=True)
-    dw, dwv = 1.0 + config.deep_weight * dw / 0.03, 1.0 + config.deep_weight * dwv / 0.03
+    dw, dwv = 1.0 + config.deep_weight * dw / MAX_DEPTH, 1.0 + config.deep_weight * dwv / MAX_DEPTH
     x_mean, x_std = x.mean(0), x.std(0) + 1e-6
     t = lambda a: torch.tensor(a, dtype=torch.float32)  # noqa: E731
     X, PE, NE, PC, NC, W = t((x - x_mean) / x_std), t(pe), t(ne), t(pc), t(nc), t(dw)
