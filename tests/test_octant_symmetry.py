@@ -29,7 +29,8 @@ EPS = 1e-9  # [m] half the step across a plane
 # (point [m/m], normal [1/m] well below 10), so a continuous answer moves < 2e-8; rounding
 # of float64 sums of terms ~10 m is ~1e-14. The ONNX graph's answers are float32: half an
 # ulp of a coordinate below 8 m is 2.4e-7 m (of a unit normal 3e-8), so 1e-6 there.
-# The un-blended network jumps 9.2e-3 m and 6.6e-3 (0.38 deg) on these poses.
+# The un-blended shipped network jumps by a median of 15-22 mm (up to 82 mm, 0.7 deg) across
+# x = 0 or y = 0 on these poses and 95 mm across z = 0 (9.2 mm on the 40 ft centred pair).
 TOL = {"numpy": (2e-8, 2e-8), "compiled": (2e-8, 2e-8), "onnx": (1e-6, 1e-6)}
 
 
@@ -99,14 +100,14 @@ def test_no_jump_across_a_plane_nor_at_the_band_edge(paths, path):
 
 def test_the_unblended_network_does_jump():
     """What the blend removes: the octant-frame pipeline alone (predictor's steps without
-    frame_blend) jumps by millimetres crossing y = 0 on these poses (measured 9.2 mm on a
-    centred 40 ft pair); if this ever stops failing, the blend is no longer needed."""
+    frame_blend) jumps by centimetres crossing y = 0 on these poses (median 15 mm, up to
+    66 mm; 9.2 mm on a centred 40 ft pair); if this ever stops, the blend is no longer needed."""
     pred = load_predictor(compiled=False)
     p, R, sA, sB = _poses(150, 2020)
     lo, hi = p.copy(), p.copy()
     lo[:, 1], hi[:, 1] = -EPS, EPS
     jumps = np.abs(_plain(pred, hi, R, sA, sB)[0] - _plain(pred, lo, R, sA, sB)[0]).max(axis=1)
-    assert jumps.max() > 1e-3
+    assert np.median(jumps) > 5e-3 and jumps.max() > 3e-2
 
 
 def _plain(pred, p, R, sA, sB):
