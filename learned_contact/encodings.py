@@ -43,10 +43,55 @@ def canonicalise(p_AB, R_AB):
     R_c may be improper.
     """
     S = octant_signs(p_AB)
-    p_c = S * p_AB
-    R_c = S[:, :, None] * R_AB
-    col = np.where(R_c.sum(axis=1) >= 0.0, 1.0, -1.0)  # (n, 3)
-    return S, p_c, R_c * col[:, None, :]
+    return (S, *reflect(S, p_AB, R_AB))
+
+
+def reflect(sigma, p_AB, R_AB):
+    """(p (n, 3) [m], R (n, 3, 3)): poses seen in A's frame reflected by diag(sigma)
+    (sigma (n, 3) of +-1), B's columns sign-fixed as in canonicalise."""
+    p = sigma * p_AB
+    R = sigma[:, :, None] * R_AB
+    col = np.where(R.sum(axis=1) >= 0.0, 1.0, -1.0)  # (n, 3)
+    return p, R * col[:, None, :]
+
+
+# ------------------------------------------------------- continuity on the octant planes
+# The improved predictor answers in the octant frame S = diag(sign(p_AB)); on a plane
+# p_k = 0 the two octants meet and a network that is not exactly symmetric there jumps.
+# Within SYMMETRY_BAND of a plane the answer is blended with the same pose answered in
+# the neighbouring octant's frame (S with its k-th sign flipped): weight 1 - w/2 on the
+# own frame and w/2 on the other, w = band_weight(|p_k|) (1 on the plane, 0 beyond the
+# band, C1). On the plane both frames get 1/2 from either side, so the answer is
+# continuous there by construction (to rounding); near two or three planes the blends
+# nest (product weights over the 4 or 8 frames). Beyond every band it is the plain
+# canonical answer, bit for bit.
+SYMMETRY_BAND = 0.02  # [m]
+FLIPS = ((0, 0, 0), (0, 0, 1), (0, 1, 0), (0, 1, 1), (1, 0, 0), (1, 0, 1), (1, 1, 0), (1, 1, 1))
+
+
+def band_weight(t) -> np.ndarray:
+    """w(t) = 1 - smoothstep(t / SYMMETRY_BAND) for t = |p_k| [m]: 1 at 0, 0 from the
+    band's edge on, with zero slope at both ends."""
+    u = np.clip(np.asarray(t) / SYMMETRY_BAND, 0.0, 1.0)
+    return 1.0 - u * u * (3.0 - 2.0 * u)
+
+
+def frame_blend(p_AB):
+    """[(sigma (n, 3) frame signs, coef (n,) weight)] for the FLIPS of the octant frame
+    (own frame first; coefficients sum to 1 per pose, zero outside the bands), leaving
+    out the flips whose weight is zero for every pose."""
+    S = octant_signs(p_AB)
+    half = 0.5 * band_weight(np.abs(p_AB))  # (n, 3)
+    out = []
+    near = np.any(half > 0.0, axis=0)  # (3,) any pose inside the band of plane k
+    for flip in FLIPS:
+        if any(f and not near[k] for k, f in enumerate(flip)):
+            continue  # weight 0 for every pose: not evaluated
+        coef = np.ones(len(S))
+        for k in range(3):
+            coef = coef * (half[:, k] if flip[k] else 1.0 - half[:, k])
+        out.append((S * np.where(np.array(flip) == 1, -1.0, 1.0), coef))
+    return out
 
 
 def proper(R_c) -> np.ndarray:

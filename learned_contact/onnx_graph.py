@@ -157,9 +157,40 @@ def transpose(g: Graph, M):
 def canonicalise(g: Graph, p, R):
     """encodings.canonicalise: (S (n, 3) signs, p_c (n, 3) >= 0 [m], R_c (n, 3, 3))."""
     S = g.sign_ge0(p)
+    return (S, *reflect(g, S, p, R))
+
+
+def reflect(g: Graph, S, p, R):
+    """encodings.reflect: the poses seen in A's frame reflected by diag(S) (S (n, 3) of
+    +-1): (p (n, 3) [m], R (n, 3, 3), B's columns sign-fixed)."""
     RS = g.mul(g.unsq(S, [2]), R)
     col = g.sign_ge0(g.rsum(RS, 1))
-    return S, g.mul(S, p), g.mul(RS, g.unsq(col, [1]))
+    return g.mul(S, p), g.mul(RS, g.unsq(col, [1]))
+
+
+def frame_rows(g: Graph, p, band: float, flips):
+    """encodings.frame_blend as rows to evaluate: (rows (M,) int64 indices into the batch,
+    sigma (M, 3) frame signs, coef (M, 1) weights). The first n rows are the own octant
+    frame of every pose in order; then, per flip pattern, the poses whose weight is > 0."""
+    S = g.sign_ge0(p)
+    u = g.clip(g.div(g.op("Abs", p), g.f(band)), g.f(0.0), g.f(1.0))
+    half = g.mul(g.f(0.5), g.sub(g.f(1.0), g.mul(g.mul(u, u), g.sub(g.f(3.0), g.mul(g.f(2.0), u)))))
+    other = [g.take(half, [k], 1) for k in range(3)]
+    own = [g.sub(g.f(1.0), h) for h in other]
+    n = g.op("Gather", g.op("Shape", p), g.i(0))
+    rows, sigma, coef = [], [], []
+    for flip in flips:
+        c = g.mul(g.mul(other[0] if flip[0] else own[0], other[1] if flip[1] else own[1]),
+                  other[2] if flip[2] else own[2])
+        s = g.mul(S, g.f(np.where(np.array(flip) == 1, -1.0, 1.0)[None]))
+        if not any(flip):
+            r = g.op("Range", g.i(0), n, g.i(1))
+        else:
+            r = g.sq(g.op("NonZero", g.op("Greater", g.sq(c, [1]), g.f(0.0))), [0])
+        rows.append(r)
+        sigma.append(g.op("Gather", s, r, axis=0))
+        coef.append(g.op("Gather", c, r, axis=0))
+    return g.op("Concat", *rows, axis=0), g.op("Concat", *sigma, axis=0), g.op("Concat", *coef, axis=0)
 
 
 def sat(g: Graph, p, R, hA, hB):

@@ -6,7 +6,10 @@
 Pipeline (fixed cost per pair): canonicalise the pose into A's positive octant
 (encodings.canonicalise), compute the geometric estimate and features
 (encodings.features), let the MLP correct the estimate (point += POINT_STEP * y[:3],
-normal = normalise(estimate + y[3:6])), reflect back. The numpy path below is the
+normal = normalise(estimate + y[3:6])), reflect back. Within encodings.SYMMETRY_BAND of
+one of A's reflection planes the answer is blended with the same pose answered in the
+neighbouring octant's frame (encodings.frame_blend), so that it is continuous across
+the plane by construction. The numpy path below is the
 reference; learned_contact.compiled.kernels.improved_predict is the same pipeline compiled.
 """
 
@@ -18,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.base import FORMAT_VERSION, MLPPredictor
-from learned_contact.encodings import canonicalise, features
+from learned_contact.encodings import features, frame_blend, reflect
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
 from testbed.geometry.boxes import sat_normal
 
@@ -41,11 +44,17 @@ class ContactPredictor(MLPPredictor):
         h_A = 0.5 * sA
         sat_n, depth, _ = sat_normal(p, R, h_A, 0.5 * sB)
         out = (depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])
-        S, p_c, R_c = canonicalise(p, R)
-        x, point_est, normal_est = features(p_c, R_c, h_A, 0.5 * sB)
-        y = self.mlp(x)
-        point = S * (point_est + POINT_STEP * y[:, :3])
-        normal = S * (normal_est + y[:, 3:6])
+        point, normal = np.zeros_like(p), np.zeros_like(p)
+        for sigma, coef in frame_blend(p):  # the octant frame, and its neighbours near a plane
+            rows = np.flatnonzero(coef > 0.0)
+            if len(rows) == 0:
+                continue
+            p_c, R_c = reflect(sigma[rows], p[rows], R[rows])
+            x, point_est, normal_est = features(p_c, R_c, h_A[rows], 0.5 * sB[rows])
+            y = self.mlp(x)
+            c = coef[rows, None]
+            point[rows] += c * (sigma[rows] * (point_est + POINT_STEP * y[:, :3]))
+            normal[rows] += c * (sigma[rows] * (normal_est + y[:, 3:6]))
         length = np.linalg.norm(normal, axis=1, keepdims=True)
         ok = np.isfinite(length) & (length > 1e-9)
         normal = np.where(ok, normal / np.where(ok, length, 1.0), sat_n)

@@ -16,13 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.encodings import canonicalise, features
+from learned_contact.encodings import canonicalise, features, frame_blend, reflect
 from learned_contact.labels import Dataset, make_dataset
 from learned_contact.metrics import evaluate, paper_table
 from learned_contact.mlp import NumpyMLP
 from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets, predict_paper, train_paper
 from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
 from learned_contact.report import write_report
+from learned_contact.sampling import MAX_DEPTH
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.progress import progress as progress_bar
 
@@ -53,6 +54,12 @@ class TrainConfig:
     # labelled "resting" poses (sampling.py, issue 20) added to the training pool; 0: the
     # shipped recipe (RESTING_RECIPE is the measured candidate, learned_contact/README.md)
     n_resting: int = 0
+    # train on the neighbouring octant frames of poses near a reflection plane too
+    # (improved_inputs(mirror=True)), so that the predictor's blend there moves little
+    mirror: bool = False
+    # normal loss weight 1 + deep_weight * depth / 3 cm per pose: leans on the deepest
+    # training poses, where the predictor extrapolates beyond them (gates' "outside" set)
+    deep_weight: float = 0.0
     workers: int = 2
     torch_threads: int = 1
     paper: PaperConfig = PaperConfig()
@@ -81,12 +88,25 @@ def _concat(sets) -> Dataset:
     return Dataset(**fields)
 
 
-def improved_inputs(ds: Dataset):
+def improved_inputs(ds: Dataset, mirror: bool = False, with_depth: bool = False):
     """(x (n, F), point_est (n, 3), normal_est (n, 3), point_c (n, 3), normal_c (n, 3)):
-    features, geometric estimate and labels, all in the canonical frame."""
+    features, geometric estimate and labels, all in the canonical frame. mirror: also
+    every pose within encodings.SYMMETRY_BAND of a reflection plane answered in each
+    neighbouring octant's frame that the predictor blends in there (frame_blend), so
+    the network learns both frames alike (rows appended after the n canonical ones).
+    with_depth: a sixth array, each row's target penetration depth [m]."""
     S, p_c, R_c = canonicalise(ds.p_AB, ds.R_AB)
     x, point_est, normal_est = features(p_c, R_c, 0.5 * ds.size_A, 0.5 * ds.size_B)
-    return x, point_est, normal_est, S * ds.cop, S * ds.normal
+    out = [(x, point_est, normal_est, S * ds.cop, S * ds.normal, ds.depth)]
+    for sigma, coef in (frame_blend(ds.p_AB)[1:] if mirror else []):
+        rows = np.flatnonzero(coef > 0.0)
+        if len(rows) == 0:
+            continue
+        sg = sigma[rows]
+        p_m, R_m = reflect(sg, ds.p_AB[rows], ds.R_AB[rows])
+        xm, pm, nm = features(p_m, R_m, 0.5 * ds.size_A[rows], 0.5 * ds.size_B[rows])
+        out.append((xm, pm, nm, sg * ds.cop[rows], sg * ds.normal[rows], ds.depth[rows]))
+    return tuple(np.concatenate(parts) for parts in zip(*out))[:6 if with_depth else 5]
 
 
 def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progress: bool = True):
@@ -97,12 +117,13 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
 
     torch.manual_seed(config.seed)
     torch.set_num_threads(config.torch_threads)
-    x, pe, ne, pc, nc = improved_inputs(train)
-    xv, pev, nev, pcv, ncv = improved_inputs(val)
+    x, pe, ne, pc, nc, dw = improved_inputs(train, mirror=config.mirror, with_depth=True)
+    xv, pev, nev, pcv, ncv, dwv = improved_inputs(val, with_depth=True)
+    dw, dwv = 1.0 + config.deep_weight * dw / MAX_DEPTH, 1.0 + config.deep_weight * dwv / MAX_DEPTH
     x_mean, x_std = x.mean(0), x.std(0) + 1e-6
     t = lambda a: torch.tensor(a, dtype=torch.float32)  # noqa: E731
-    X, PE, NE, PC, NC = t((x - x_mean) / x_std), t(pe), t(ne), t(pc), t(nc)
-    Xv, PEv, NEv, PCv, NCv = t((xv - x_mean) / x_std), t(pev), t(nev), t(pcv), t(ncv)
+    X, PE, NE, PC, NC, W = t((x - x_mean) / x_std), t(pe), t(ne), t(pc), t(nc), t(dw)
+    Xv, PEv, NEv, PCv, NCv, Wv = t((xv - x_mean) / x_std), t(pev), t(nev), t(pcv), t(ncv), t(dwv)
     act = {"silu": torch.nn.SiLU, "tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[config.activation]
     sizes = (x.shape[1], *config.hidden, 6)
     layers = []
@@ -121,9 +142,9 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
         y = net(xb)
         return peb + POINT_STEP * y[:, :3], torch.nn.functional.normalize(neb + y[:, 3:], dim=1)
 
-    def loss_fn(p, n, pc_, nc_):
+    def loss_fn(p, n, pc_, nc_, w):
         lp = torch.nn.functional.smooth_l1_loss(p, pc_, beta=config.point_beta) / config.point_scale
-        ln = ((n - nc_) ** 2).sum(1).mean() / config.normal_scale**2
+        ln = (w * ((n - nc_) ** 2).sum(1)).mean() / config.normal_scale**2
         return lp + ln
 
     best, best_state, history = np.inf, None, []
@@ -132,13 +153,13 @@ def train_improved(train: Dataset, val: Dataset, config: TrainConfig, *, progres
         perm = torch.randperm(len(X))
         for i in range(0, len(X), config.batch):
             b = perm[i:i + config.batch]
-            loss = loss_fn(*forward(X[b], PE[b], NE[b]), PC[b], NC[b])
+            loss = loss_fn(*forward(X[b], PE[b], NE[b]), PC[b], NC[b], W[b])
             opt.zero_grad()
             loss.backward()
             opt.step()
             sched.step()
         with torch.no_grad():
-            v = float(loss_fn(*forward(Xv, PEv, NEv), PCv, NCv))
+            v = float(loss_fn(*forward(Xv, PEv, NEv), PCv, NCv, Wv))
         history.append(v)
         bar.set_postfix(val=f"{v:.4g}")
         if v < best:

@@ -18,12 +18,24 @@ import math
 import numpy as np
 from numba import njit
 
-from learned_contact.compiled.prior import LENGTH_SCALE, MAX_VERTS, N_FEATURES, canonicalise, patch_estimate, sat_depth
+from learned_contact.compiled.prior import (
+    LENGTH_SCALE,
+    MAX_VERTS,
+    N_FEATURES,
+    band_half_weights,
+    canonicalise,
+    patch_estimate,
+    reflect,
+    sat_depth,
+)
 from learned_contact.encodings import PAPER_FRAME
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE
 
 ACTIVATION_CODES = {"tanh": 0, "silu": 1, "relu": 2}
 POINT_STEP = 0.5  # [m] per unit of the improved MLP's point outputs (predictor.POINT_STEP)
+# [m] encodings.SYMMETRY_BAND; a literal in this file, not an import: numba freezes globals
+# into the cached machine code of improved_predict and recompiles only when this file changes
+SYMMETRY_BAND = 0.02
 _FRAME = np.ascontiguousarray(PAPER_FRAME)
 
 
@@ -190,7 +202,9 @@ def features(x, p_c, R_c, hA, hB, overlap, point_est, normal_est, pen, k, weight
 
 @njit(cache=True)
 def improved_predict(p, R, sA, sB, supported, params, dims, act):
-    """The improved predictor (predictor.ContactPredictor.predict, outside='clip').
+    """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
+    the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
+    sign flips in FLIPS order, skipped where their weight is 0).
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -204,32 +218,49 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act):
     hA, hB, S, p_c, R_c = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
     work, RT, axes, overlap = np.empty(6), np.empty((3, 3)), np.empty((15, 3)), np.empty(15)
     poly, tmp, dep = np.empty((MAX_VERTS, 3)), np.empty((MAX_VERTS, 3)), np.empty(MAX_VERTS)
-    pe, ne = np.empty(3), np.empty(3)
+    pe, ne, half, sigma, ne0 = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    pen0 = 0.0
     for r in range(n):
         ia = 0 if sA.shape[0] == 1 else r
         ib = 0 if sB.shape[0] == 1 else r
         for c in range(3):
             hA[c], hB[c] = 0.5 * sA[ia, c], 0.5 * sB[ib, c]
+            point[r, c], normal[r, c] = 0.0, 0.0
         canonicalise(p[r], R[r], S, p_c, R_c)
-        pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
-        features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
-        mlp_forward(x, params, dims, act, h0, h1, y)
+        band_half_weights(p[r], SYMMETRY_BAND, half)
+        for f in range(8):
+            coef = 1.0
+            for c in range(3):
+                flip = (f >> (2 - c)) & 1
+                coef = coef * (half[c] if flip else 1.0 - half[c])
+                sigma[c] = -S[c] if flip else S[c]
+            if not coef > 0.0:
+                continue
+            reflect(p[r], R[r], sigma, p_c, R_c)
+            pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
+            features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
+            mlp_forward(x, params, dims, act, h0, h1, y)
+            if f == 0:
+                pen0 = pen
+                for c in range(3):
+                    ne0[c] = ne[c]
+            for c in range(3):
+                point[r, c] += coef * (sigma[c] * (pe[c] + POINT_STEP * y[c]))
+                normal[r, c] += coef * (sigma[c] * (ne[c] + y[3 + c]))
         length2 = 0.0
         for c in range(3):
-            nc = S[c] * (ne[c] + y[3 + c])
-            normal[r, c] = nc
-            length2 += nc * nc
+            length2 += normal[r, c] * normal[r, c]
         length = math.sqrt(length2)
         ok = math.isfinite(length) and length > 1e-9
-        out = pen < DOMAIN_DEPTH[0] or pen > DOMAIN_DEPTH[1]
+        out = pen0 < DOMAIN_DEPTH[0] or pen0 > DOMAIN_DEPTH[1]
         for c in range(3):
-            normal[r, c] = normal[r, c] / length if ok else S[c] * ne[c]
-            v = S[c] * (pe[c] + POINT_STEP * y[c])
+            normal[r, c] = normal[r, c] / length if ok else S[c] * ne0[c]
+            v = point[r, c]
             if out:
                 bound = hA[c] + CLIP_MARGIN
                 v = min(max(v, -bound), bound)
             point[r, c] = v
-        depth[r] = pen
+        depth[r] = pen0
     return point, normal, depth, 0, 0
 
 

@@ -238,8 +238,24 @@ def canonicalise(p, R, S, p_c, R_c):
     S (3,) signs, p_c (3,) [m], R_c (3, 3) (columns sign-fixed to a non-negative sum)."""
     for i in range(3):
         S[i] = 1.0 if p[i] >= 0.0 else -1.0
+    reflect(p, R, S, p_c, R_c)
+
+
+@njit(cache=True)
+def reflect(p, R, S, p_c, R_c):
+    """One pose seen in A's frame reflected by diag(S) (encodings.reflect): fills
+    p_c (3,) [m] and R_c (3, 3) (columns sign-fixed to a non-negative sum)."""
+    for i in range(3):
         p_c[i] = S[i] * p[i]
     for j in range(3):
         col = 1.0 if S[0] * R[0, j] + S[1] * R[1, j] + S[2] * R[2, j] >= 0.0 else -1.0
         for i in range(3):
             R_c[i, j] = S[i] * R[i, j] * col
+
+
+@njit(cache=True)
+def band_half_weights(p, band, half):
+    """Fills half (3,) with w(|p_k|) / 2 (encodings.band_weight: 1 - smoothstep(|p_k| / band))."""
+    for k in range(3):
+        u = min(max(abs(p[k]) / band, 0.0), 1.0)
+        half[k] = 0.5 * (1.0 - u * u * (3.0 - 2.0 * u))
