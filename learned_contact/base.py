@@ -19,6 +19,10 @@ from learned_contact.mlp import NumpyMLP
 from testbed.geometry.boxes import sat_normal
 
 FORMAT_VERSION = 1
+# version 2: an improved predictor's file that carries a resting expert (expert/...); a
+# reader of version 1 would ignore those arrays and answer without the expert
+EXPERT_FORMAT_VERSION = 2
+FORMAT_VERSIONS = (FORMAT_VERSION, EXPERT_FORMAT_VERSION)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,15 +109,21 @@ class MLPPredictor:
 
     def save(self, path) -> Path:
         """Writes the predictor to an .npz file: format_version, kind, supported_sizes,
-        meta (JSON) and the network under mlp/ (learned_contact.loading reads it)."""
+        meta (JSON), the network under mlp/ and a subclass's extra arrays
+        (learned_contact.loading reads it)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        np.savez(path, format_version=np.array(FORMAT_VERSION), kind=np.array(self.kind),
+        version, extra = self._extra_arrays()
+        np.savez(path, format_version=np.array(version), kind=np.array(self.kind),
                  supported_sizes=self.supported_sizes, meta=np.array(json.dumps(self.meta)),
-                 **self.mlp.to_arrays("mlp/"))
+                 **self.mlp.to_arrays("mlp/"), **extra)
         return path
 
     # ------------------------------------------------------------- for subclasses
+    def _extra_arrays(self) -> tuple[int, dict]:
+        """(format_version, arrays beyond the main network) that save() writes."""
+        return FORMAT_VERSION, {}
+
     def _predict_numpy(self, p, R, sA, sB, with_depth: bool):
         """(point (n, 3), normal (n, 3), depth (n,)) on checked (n, ...) arrays."""
         raise NotImplementedError

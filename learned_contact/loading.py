@@ -9,7 +9,10 @@ them all, `load_predictor`, are in learned_contact.sources.
 
 A weights file is an .npz with: format_version (int, FORMAT_VERSION), kind ("improved"
 or "paper"), supported_sizes (k, 3) full extents [m], meta (JSON string) and the network
-under mlp/ (x_mean, x_std, activation, W0.., b0..; W_i (in, out)). Files written before
+under mlp/ (x_mean, x_std, activation, W0.., b0..; W_i (in, out)). An improved file may
+carry a resting expert (learned_contact.expert): a second network of the same widths
+under expert/ and its gate's bounds, expert/domain (8,); such a file has format_version
+EXPERT_FORMAT_VERSION (2), so that no reader of version 1 answers without it. Files written before
 `kind` existed are recognised by their arrays (the improved file has supported_sizes,
 the paper file a 6-input network and no version).
 """
@@ -21,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.base import FORMAT_VERSION
+from learned_contact.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, FORMAT_VERSIONS
 from learned_contact.errors import WeightsError, weights_error
+from learned_contact.expert import check_domain
 from learned_contact.mlp import ACTIVATIONS, NumpyMLP
 from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -80,30 +84,53 @@ def infer_kind(arrays: dict, path) -> str:
     raise _fail(path, "kind", "is missing and cannot be inferred", f"one of {sorted(SHAPES)}")
 
 
-def _mlp(arrays: dict, path, kind: str) -> NumpyMLP:
-    n = sum(1 for k in arrays if k.startswith("mlp/W"))
-    for field in ["mlp/x_mean", "mlp/x_std", "mlp/activation"] + [f"mlp/{p}{i}" for i in range(n) for p in "Wb"]:
+def _mlp(arrays: dict, path, kind: str, prefix: str = "mlp/") -> NumpyMLP:
+    n = sum(1 for k in arrays if k.startswith(f"{prefix}W"))
+    for field in [f"{prefix}x_mean", f"{prefix}x_std", f"{prefix}activation"] + [
+            f"{prefix}{p}{i}" for i in range(n) for p in "Wb"]:
         if field not in arrays:
             raise _fail(path, field, "is missing", f"a {kind} network with {n} layers")
-    activation = str(arrays["mlp/activation"])
+    activation = str(arrays[f"{prefix}activation"])
     if activation not in ACTIVATIONS:
-        raise _fail(path, "mlp/activation", f"is {activation!r}", f"one of {sorted(ACTIVATIONS)}")
+        raise _fail(path, f"{prefix}activation", f"is {activation!r}", f"one of {sorted(ACTIVATIONS)}")
     width = SHAPES[kind][0]
     for i in range(n):
-        W, b = arrays[f"mlp/W{i}"], arrays[f"mlp/b{i}"]
+        W, b = arrays[f"{prefix}W{i}"], arrays[f"{prefix}b{i}"]
         if W.ndim != 2 or W.shape[0] != width or b.shape != (W.shape[1],):
-            raise _fail(path, f"mlp/W{i}", f"has shape {W.shape} (bias {b.shape})",
+            raise _fail(path, f"{prefix}W{i}", f"has shape {W.shape} (bias {b.shape})",
                         f"({width}, m) with bias (m,)")
         width = W.shape[1]
     if width != SHAPES[kind][1]:
-        raise _fail(path, f"mlp/W{n - 1}", f"has {width} outputs", f"{SHAPES[kind][1]} for kind {kind!r}")
-    for field in ("mlp/x_mean", "mlp/x_std"):
+        raise _fail(path, f"{prefix}W{n - 1}", f"has {width} outputs", f"{SHAPES[kind][1]} for kind {kind!r}")
+    for field in (f"{prefix}x_mean", f"{prefix}x_std"):
         if arrays[field].shape != (SHAPES[kind][0],):
             raise _fail(path, field, f"has shape {arrays[field].shape}", f"({SHAPES[kind][0]},)")
-    mlp = NumpyMLP.from_arrays(arrays, "mlp/")
+    mlp = NumpyMLP.from_arrays(arrays, prefix)
     if not all(np.all(np.isfinite(a)) for a in (*mlp.weights, *mlp.biases, mlp.x_mean, mlp.x_std)):
-        raise _fail(path, "mlp/*", "holds NaN or inf", "finite weights")
+        raise _fail(path, f"{prefix}*", "holds NaN or inf", "finite weights")
     return mlp
+
+
+def _expert(arrays: dict, path, kind: str, version: int) -> dict:
+    """{"expert": NumpyMLP, "expert_domain": (8,)} of a file carrying a resting expert, else {}."""
+    has = any(k.startswith("expert/") for k in arrays)
+    if not has:
+        if version == EXPERT_FORMAT_VERSION:
+            raise _fail(path, "expert/W0", f"is missing (format_version {version} carries a resting expert)",
+                        f"expert/ arrays, or format_version {FORMAT_VERSION}")
+        return {}
+    if kind != "improved":
+        raise _fail(path, "expert/*", f"is present in a {kind!r} file", "a resting expert only in an improved file")
+    if version != EXPERT_FORMAT_VERSION:
+        raise _fail(path, "format_version", f"is {version} but the file carries a resting expert (expert/)",
+                    f"{EXPERT_FORMAT_VERSION}")
+    if "expert/domain" not in arrays:
+        raise _fail(path, "expert/domain", "is missing", "(8,) the expert gate's bounds (learned_contact.expert)")
+    problem = check_domain(arrays["expert/domain"])
+    if problem:
+        raise _fail(path, "expert/domain", problem, "the expert gate's bounds (learned_contact.expert.DOMAIN_FIELDS)")
+    return {"expert": _mlp(arrays, path, kind, "expert/"),
+            "expert_domain": np.asarray(arrays["expert/domain"], dtype=float)}
 
 
 def load_weights(name_or_path=None, *, compiled: bool = True):
@@ -118,9 +145,10 @@ def load_weights(name_or_path=None, *, compiled: bool = True):
     kind = infer_kind(arrays, path)
     legacy_paper = kind == "paper" and "format_version" not in arrays
     version = int(arrays.get("format_version", FORMAT_VERSION if legacy_paper else -1))
-    if version != FORMAT_VERSION:
-        raise _fail(path, "format_version", f"is {version}", str(FORMAT_VERSION))
+    if version not in FORMAT_VERSIONS:
+        raise _fail(path, "format_version", f"is {version}", " or ".join(map(str, FORMAT_VERSIONS)))
     mlp = _mlp(arrays, path, kind)
+    extra = _expert(arrays, path, kind, version)
     if "supported_sizes" in arrays:
         sizes = np.asarray(arrays["supported_sizes"], dtype=float)
     elif legacy_paper:
@@ -134,4 +162,4 @@ def load_weights(name_or_path=None, *, compiled: bool = True):
         meta = json.loads(str(arrays["meta"])) if "meta" in arrays else {}
     except json.JSONDecodeError as exc:
         raise _fail(path, "meta", f"is not JSON ({exc})", "a JSON object") from exc
-    return _classes()[kind](mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled)
+    return _classes()[kind](mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled, **extra)

@@ -103,6 +103,27 @@ def _clip_outside(g, point, depth, hA):
     return g.where(out, g.clip(point, g.op("Neg", bound), bound), point)
 
 
+def _expert_gate(g, p_c, R_c, depth, domain):
+    """(M, 1) learned_contact.expert.gate of canonical rows p_c (M, 3), R_c (M, 3, 3),
+    depth (M, 1) [m]; both networks are evaluated on every row and blended (at g = 0
+    the main network's answer is kept exactly: y * 1 + 0 * y_expert)."""
+
+    def ramp_off(t, lo, hi):  # 1 - smoothstep((t - lo) / (hi - lo)) (expert._ramp_off)
+        u = g.clip(g.div(g.sub(t, g.f(lo)), g.f(hi - lo)), g.f(0.0), g.f(1.0))
+        return g.sub(g.f(1.0), g.mul(g.mul(u, u), g.sub(g.f(3.0), g.mul(g.f(2.0), u))))
+
+    col = lambda a, k: g.take(a, [k], 1)  # noqa: E731  (n, 1) column k of an (n, 3) array
+    z_B = g.sq(g.take(R_c, [2], 2), [2])  # (M, 3) B's z axis
+    sin_tilt = g.op("Sqrt", g.add(g.mul(col(z_B, 0), col(z_B, 0)), g.mul(col(z_B, 1), col(z_B, 1))))
+    sin_yaw = g.op("Abs", g.sq(g.take(g.take(R_c, [1], 1), [0], 2), [2]))
+    d = [float(v) for v in domain]
+    out = ramp_off(depth, d[0], d[1])
+    for t, (lo, hi) in ((sin_tilt, d[2:4]), (sin_yaw, d[4:6]), (g.op("Abs", col(p_c, 0)), d[6:8]),
+                        (g.op("Abs", col(p_c, 1)), d[6:8])):
+        out = g.mul(out, ramp_off(t, lo, hi))
+    return out
+
+
 def improved_graph(predictor):
     """The Graph of predictor.ContactPredictor (see the module docstring), in float64."""
     g = og.Graph(np.float64)
@@ -127,6 +148,9 @@ def improved_graph(predictor):
              g.mul(depth, g.f(30.0)), edge, g.mul(corners_B, s), g.mul(g.clip(depth_B, g.f(-0.5), g.f(0.5)), ten),
              g.mul(g.clip(depth_A, g.f(-0.5), g.f(0.5)), ten), axis=1)
     y = og.mlp(g, x, predictor.mlp)
+    if predictor.expert is not None:  # the resting expert (learned_contact.expert), blended by its gate
+        gate = _expert_gate(g, p_c, R_c, depth, predictor.expert_domain)
+        y = g.add(g.mul(y, g.sub(g.f(1.0), gate)), g.mul(gate, og.mlp(g, x, predictor.expert)))
     point_t = g.mul(coef, g.mul(sigma, g.add(point_est, g.mul(g.f(POINT_STEP), g.take(y, [0, 1, 2], 1)))))
     normal_t = g.mul(coef, g.mul(sigma, g.add(normal_est, g.take(y, [3, 4, 5], 1))))
     zeros = g.op("Expand", g.f(np.zeros((1, 3))), g.op("Shape", p0))
@@ -325,13 +349,13 @@ def run_onnx(session, p_AB, R_AB, size_A, size_B) -> dict:
 
 def agreement(path, name_or_path, *, n: int = 400, seed: int = 12345) -> dict:
     """Largest differences between the ONNX file at path and the compiled predictor
-    name_or_path on n held-out general and n stacking poses (seed), both given the
+    name_or_path on n held-out general, n stacking and n resting poses (seed), both given the
     same float32-rounded poses: {"point_m", "normal_deg", "depth_m", "n"}."""
 
     pred = load_weights(name_or_path)
     session = onnx_session(path)
     worst = {"point_m": 0.0, "normal_deg": 0.0, "depth_m": 0.0, "n": 0}
-    for k, dist in enumerate(("general", "stacking")):
+    for k, dist in enumerate(("general", "stacking", "resting")):
         poses = [np.asarray(a, dtype=np.float32).astype(float) for a in probe_poses(n, seed + k, dist)]
         got = run_onnx(session, *poses)
         point, normal = pred.predict(poses[0], poses[1], size_A=poses[2], size_B=poses[3])

@@ -9,7 +9,9 @@ Pipeline (fixed cost per pair): canonicalise the pose into A's positive octant
 normal = normalise(estimate + y[3:6])), reflect back. Within encodings.SYMMETRY_BAND of
 one of A's reflection planes the answer is blended with the same pose answered in the
 neighbouring octant's frame (encodings.frame_blend), so that it is continuous across
-the plane by construction. The numpy path below is the
+the plane by construction. Where stacks rest (learned_contact.expert's gate) a second
+network of the same shape, the resting expert, gives the correction instead, with a
+smooth hand-over at its domain's edges. The numpy path below is the
 reference; learned_contact.compiled.kernels.improved_predict is the same pipeline compiled.
 """
 
@@ -20,25 +22,67 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.base import FORMAT_VERSION, MLPPredictor
+from learned_contact.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, MLPPredictor
 from learned_contact.encodings import features, frame_blend, reflect
+from learned_contact.expert import gate
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
+from learned_contact.mlp import NumpyMLP
 from testbed.geometry.boxes import sat_normal
 
 SHIPPED_DIR = Path(__file__).resolve().parent / "shipped"
 DEFAULT_WEIGHTS = SHIPPED_DIR / "weights.npz"
 POINT_STEP = 0.5  # [m] per unit of the MLP's point outputs
 
-__all__ = ["CLIP_MARGIN", "DEFAULT_WEIGHTS", "DOMAIN_DEPTH", "FORMAT_VERSION", "POINT_STEP", "SHIPPED_DIR",
+__all__ = ["CLIP_MARGIN", "DEFAULT_WEIGHTS", "DOMAIN_DEPTH", "EXPERT_FORMAT_VERSION", "FORMAT_VERSION", "POINT_STEP", "SHIPPED_DIR",
            "SIZE_TOLERANCE", "ContactPredictor"]
 
 
 @dataclasses.dataclass(frozen=True)
 class ContactPredictor(MLPPredictor):
     """Predicts the static hydroelastic contact answer of a container pair (see the
-    module docstring); the interface is learned_contact.interface.Predictor."""
+    module docstring); the interface is learned_contact.interface.Predictor.
+
+    expert: the resting expert (same input and output widths as mlp) or None;
+    expert_domain (8,): its gate's bounds (learned_contact.expert.DOMAIN_FIELDS),
+    given exactly when expert is."""
 
     kind = "improved"
+    expert: NumpyMLP | None = None
+    expert_domain: np.ndarray | None = None
+
+    def __post_init__(self):
+        if (self.expert is None) != (self.expert_domain is None):
+            raise ValueError("expert and expert_domain go together: give both or neither")
+        if self.expert is not None:
+            object.__setattr__(self, "expert_domain", np.asarray(self.expert_domain, dtype=float).copy())
+        if self.compiled:
+            from learned_contact.compiled import pack_mlp
+
+            packed = pack_mlp(self.expert if self.expert is not None else self.mlp)
+            domain = self.expert_domain if self.expert is not None else np.zeros(8)
+            object.__setattr__(self, "_packed_expert", (*packed, np.ascontiguousarray(domain), self.expert is not None))
+        super().__post_init__()
+
+    def _correction(self, x, p_c, R_c, depth):
+        """(n, 6) the network output for features x (n, F) of canonical poses: the main
+        network's, or where the expert's gate is open the blend with the expert's."""
+        if self.expert is None:
+            return self.mlp(x)
+        g = gate(p_c, R_c, depth, self.expert_domain)
+        y = np.empty((len(x), 6))
+        main, expert = g < 1.0, g > 0.0
+        y[main] = self.mlp(x[main])
+        y[~main] = 0.0
+        both = main & expert
+        y[both] *= (1.0 - g[both])[:, None]
+        if np.any(expert):
+            y[expert] += g[expert, None] * self.expert(x[expert])
+        return y
+
+    def _extra_arrays(self):
+        if self.expert is None:
+            return FORMAT_VERSION, {}
+        return EXPERT_FORMAT_VERSION, {**self.expert.to_arrays("expert/"), "expert/domain": self.expert_domain}
 
     def _predict_numpy(self, p, R, sA, sB, with_depth: bool):
         h_A = 0.5 * sA
@@ -51,7 +95,7 @@ class ContactPredictor(MLPPredictor):
                 continue
             p_c, R_c = reflect(sigma[rows], p[rows], R[rows])
             x, point_est, normal_est = features(p_c, R_c, h_A[rows], 0.5 * sB[rows])
-            y = self.mlp(x)
+            y = self._correction(x, p_c, R_c, depth[rows])
             c = coef[rows, None]
             point[rows] += c * (sigma[rows] * (point_est + POINT_STEP * y[:, :3]))
             normal[rows] += c * (sigma[rows] * (normal_est + y[:, 3:6]))
@@ -66,4 +110,4 @@ class ContactPredictor(MLPPredictor):
     def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
         from learned_contact.compiled import improved_predict
 
-        return improved_predict(p, R, sA, sB, self.supported_sizes, *self._packed)
+        return improved_predict(p, R, sA, sB, self.supported_sizes, *self._packed, *self._packed_expert)

@@ -23,6 +23,9 @@ Penetration depth is uniform in [0, 3 cm] in both.
   within +-0.05 deg, yaw uniform within +-2 deg, horizontal offset of B's centre
   uniform in +-0.4 m along each of A's x and y axes. u = +z of A. Its ranges are fixed
   (max_depth and max_tilt_deg are refused for it).
+- "resting_wide": the same with every range widened to the resting expert's margin
+  (RESTING_RANGES: 5 um to 1 mm, 0.1 deg, 3 deg, 0.5 m), so that the expert is trained
+  wherever its gate (learned_contact.expert) lets it answer, ramps included.
 """
 
 from __future__ import annotations
@@ -36,11 +39,14 @@ from learned_contact.errors import DatasetError
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
-DISTRIBUTIONS = ("stacking", "general", "resting")  # append only: the index seeds the stream
+DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
 MAX_DEPTH = 0.03  # [m]
 RESTING_DEPTH = (5e-6, 5e-4)  # [m] log-uniform penetration of the "resting" distribution
 RESTING_TILT_DEG, RESTING_YAW_DEG, RESTING_OFFSET = 0.05, 2.0, 0.4  # [deg], [deg], [m]
+# distribution -> (depth range [m] log-uniform, roll/pitch bound [deg], yaw bound [deg], offset bound [m])
+RESTING_RANGES = {"resting": (RESTING_DEPTH, RESTING_TILT_DEG, RESTING_YAW_DEG, RESTING_OFFSET),
+                  "resting_wide": ((5e-6, 1e-3), 0.1, 3.0, 0.5)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,15 +104,16 @@ def _footprint_overlap(x, y, yaw, half_a, half_b) -> np.ndarray:
 
 def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_depth: float | None = None,
            max_tilt_deg: float | None = None) -> Proposals:
-    """n seeded proposals of `distribution` ("stacking", "general" or "resting") for
+    """n seeded proposals of `distribution` ("stacking", "general", "resting" or "resting_wide") for
     ordered type pairs drawn uniformly from `types` x `types`.
 
     max_depth [m] (default MAX_DEPTH) and max_tilt_deg (stacking roll and pitch bound,
     default 5 deg) widen the ranges for held-out poses outside the training distribution
     (learned_contact/gates.py); the defaults are the training ranges and draw exactly the
     same random stream. "resting" has fixed ranges (module docstring) and refuses both."""
-    if distribution == "resting" and (max_depth is not None or max_tilt_deg is not None):
-        raise DatasetError("the 'resting' distribution has fixed ranges; max_depth and max_tilt_deg are not accepted")
+    if distribution in RESTING_RANGES and (max_depth is not None or max_tilt_deg is not None):
+        raise DatasetError(f"the {distribution!r} distribution has fixed ranges; max_depth and max_tilt_deg are "
+                           "not accepted")
     max_depth = MAX_DEPTH if max_depth is None else max_depth
     max_tilt_deg = 5.0 if max_tilt_deg is None else max_tilt_deg
     if distribution not in DISTRIBUTIONS:
@@ -146,13 +153,14 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
             todo = todo[~ok]
         base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
         direction = np.tile([0.0, 0.0, 1.0], (n, 1))
-    elif distribution == "resting":
-        depth = np.exp(rng.uniform(*np.log(RESTING_DEPTH), size=n))
+    elif distribution in RESTING_RANGES:
+        depths, tilt, yaw, offset = RESTING_RANGES[distribution]
+        depth = np.exp(rng.uniform(*np.log(depths), size=n))
         rpy = np.empty((n, 3))
-        rpy[:, :2] = rng.uniform(-np.radians(RESTING_TILT_DEG), np.radians(RESTING_TILT_DEG), size=(n, 2))
-        rpy[:, 2] = rng.uniform(-np.radians(RESTING_YAW_DEG), np.radians(RESTING_YAW_DEG), size=n)
+        rpy[:, :2] = rng.uniform(-np.radians(tilt), np.radians(tilt), size=(n, 2))
+        rpy[:, 2] = rng.uniform(-np.radians(yaw), np.radians(yaw), size=n)
         R_AB = rotation_from_rpy(rpy)
-        xy = rng.uniform(-RESTING_OFFSET, RESTING_OFFSET, size=(n, 2))
+        xy = rng.uniform(-offset, offset, size=(n, 2))
         base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
         direction = np.tile([0.0, 0.0, 1.0], (n, 1))
     else:

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.encodings import canonicalise, features, frame_blend, reflect
+from learned_contact.expert import default_domain
 from learned_contact.labels import Dataset, make_dataset
 from learned_contact.metrics import evaluate, paper_table
 from learned_contact.mlp import NumpyMLP
@@ -28,6 +29,20 @@ from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.progress import progress as progress_bar
 
 SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests use others
+
+
+@dataclasses.dataclass(frozen=True)
+class ExpertConfig:
+    """The resting expert (learned_contact.expert): a network of the main one's shape,
+    trained only on resting poses, with its own input standardisation. Measured choices
+    (learned_contact/README.md, "The resting expert"): 80 epochs on "resting" alone gave
+    a held-out resting median of 2.8-3.1 mm; 160 epochs, the "resting_wide" margin and a
+    smooth-L1 beta of 1 cm 1.4-1.8 mm, of 5 mm 1.35-1.50 mm (held-out seeds 0 and 98765)."""
+
+    n_resting: int = 60_000  # labelled "resting" poses (training + validation)
+    n_resting_wide: int = 60_000  # labelled "resting_wide" poses: the gate's ramps
+    epochs: int = 160
+    point_beta: float = 0.005  # [m] smooth L1 beta of the point loss
 
 
 @dataclasses.dataclass(frozen=True)
@@ -60,6 +75,9 @@ class TrainConfig:
     # normal loss weight 1 + deep_weight * depth / 3 cm per pose: leans on the deepest
     # training poses, where the predictor extrapolates beyond them (gates' "outside" set)
     deep_weight: float = 0.0
+    # the resting expert and its training (None: a predictor without one)
+    expert: ExpertConfig | None = ExpertConfig()
+    n_test_resting: int = 5_000  # external resting poses (report and metrics.json)
     workers: int = 2
     torch_threads: int = 1
     paper: PaperConfig = PaperConfig()
@@ -182,7 +200,24 @@ def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
     }
     if config.n_resting:
         out["resting"] = make_dataset("resting", config.n_resting, s_tr, **kw)
+    if config.expert is not None:
+        out["expert_resting"] = make_dataset("resting", config.expert.n_resting, s_tr, **kw)
+        out["expert_resting_wide"] = make_dataset("resting_wide", config.expert.n_resting_wide, s_tr, **kw)
+    if config.n_test_resting:
+        out["resting_test"] = make_dataset("resting", config.n_test_resting, s_te, **kw)
     return out
+
+
+def train_expert(data: dict, config: TrainConfig, *, progress: bool = True):
+    """The resting expert of `config` on the labelled sets of default_datasets:
+    (NumpyMLP, info dict, (resting, resting_wide) validation Datasets). The main
+    network's recipe with ExpertConfig's epochs and point beta, on "resting" and
+    "resting_wide" poses only (10 % of each held for validation)."""
+    ex = config.expert
+    pools = [_split(data[k], int(config.n_val_fraction * len(data[k]))) for k in ("expert_resting", "expert_resting_wide")]
+    recipe = dataclasses.replace(config, epochs=ex.epochs, point_beta=ex.point_beta, mirror=False, deep_weight=0.0)
+    mlp, info = train_improved(_concat([t for t, _ in pools]), _concat([v for _, v in pools]), recipe, progress=progress)
+    return mlp, info, tuple(v for _, v in pools)
 
 
 def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: TrainConfig | None = None) -> dict:
@@ -204,7 +239,12 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
     mlp, info = train_improved(train, val, config, progress=progress)
     sizes = np.array([CONTAINER_TYPES[t].size for t in config.types])
     meta = {"config": config.to_json(), "seed": seed, "train_info": {"best_val_loss": info["best_val_loss"]}}
-    predictor = ContactPredictor(mlp, sizes, meta)
+    extra, expert_val = {}, ()
+    if config.expert is not None:
+        expert, expert_info, expert_val = train_expert(data, config, progress=progress)
+        extra = {"expert": expert, "expert_domain": default_domain()}
+        meta["train_info"]["expert_best_val_loss"] = expert_info["best_val_loss"]
+    predictor = ContactPredictor(mlp, sizes, meta, **extra)
     t_improved = time.perf_counter() - t0 - t_labels
     # paper-faithful baseline: general poses, sizes 10k / 6k / 50k
     pc = config.paper
@@ -213,8 +253,9 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
     p_test = data["general_test"].subset(slice(0, pc.n_test))
     paper, paper_info = train_paper(p_train, p_val, pc, seed=seed, progress=progress)
     t_paper = time.perf_counter() - t0 - t_labels - t_improved
-    metrics = evaluate_models(predictor, paper, {"train": (g_tr, s_tr), "validation": (g_va, s_va),
-                                                 "external": (data["general_test"], data["stacking_test"])},
+    external = (data["general_test"], data["stacking_test"]) + ((data["resting_test"],) if "resting_test" in data else ())
+    metrics = evaluate_models(predictor, paper, {"train": (g_tr, s_tr), "validation": (g_va, s_va, *expert_val),
+                                                 "external": external},
                               paper_sets={"train": p_train, "validation": p_val, "external": p_test})
     metrics["paper_info"] = paper_info
     metrics["dropped_without_surface"] = {k: v.n_dropped for k, v in data.items()}

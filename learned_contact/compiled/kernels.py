@@ -200,11 +200,29 @@ def features(x, p_c, R_c, hA, hB, overlap, point_est, normal_est, pen, k, weight
         x[83 + c] = min(max(dA, -0.5), 0.5) * 10.0
 
 
+@njit(cache=True, inline="always")
+def _ramp_off(t, t_in, t_out):
+    """learned_contact.expert._ramp_off for one value."""
+    u = min(max((t - t_in) / (t_out - t_in), 0.0), 1.0)
+    return 1.0 - u * u * (3.0 - 2.0 * u)
+
+
 @njit(cache=True)
-def improved_predict(p, R, sA, sB, supported, params, dims, act):
+def expert_gate(p_c, R_c, pen, domain):
+    """learned_contact.expert.gate for one canonical pose."""
+    sin_tilt = math.hypot(R_c[0, 2], R_c[1, 2])
+    return (_ramp_off(pen, domain[0], domain[1]) * _ramp_off(sin_tilt, domain[2], domain[3])
+            * _ramp_off(abs(R_c[1, 0]), domain[4], domain[5]) * _ramp_off(abs(p_c[0]), domain[6], domain[7])
+            * _ramp_off(abs(p_c[1]), domain[6], domain[7]))
+
+
+@njit(cache=True)
+def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims, eact, domain, has_expert):
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
     the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
-    sign flips in FLIPS order, skipped where their weight is 0).
+    sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
+    the resting expert (eparams, edims, eact: pack_mlp of it; domain (8,): its gate,
+    learned_contact.expert), each network evaluated only where its weight is not 0.
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -214,7 +232,9 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act):
     width = 0
     for i in range(1, dims.shape[0]):
         width = max(width, dims[i])
-    h0, h1, y, x = np.empty(width), np.empty(width), np.empty(6), np.empty(N_FEATURES)
+    for i in range(1, edims.shape[0]):
+        width = max(width, edims[i])
+    h0, h1, y, x, ye = np.empty(width), np.empty(width), np.empty(6), np.empty(N_FEATURES), np.empty(6)
     hA, hB, S, p_c, R_c = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
     work, RT, axes, overlap = np.empty(6), np.empty((3, 3)), np.empty((15, 3)), np.empty(15)
     poly, tmp, dep = np.empty((MAX_VERTS, 3)), np.empty((MAX_VERTS, 3)), np.empty(MAX_VERTS)
@@ -239,7 +259,13 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act):
             reflect(p[r], R[r], sigma, p_c, R_c)
             pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
             features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
-            mlp_forward(x, params, dims, act, h0, h1, y)
+            g = expert_gate(p_c, R_c, pen, domain) if has_expert else 0.0
+            if g < 1.0:
+                mlp_forward(x, params, dims, act, h0, h1, y)
+            if g > 0.0:
+                mlp_forward(x, eparams, edims, eact, h0, h1, ye)
+                for c in range(6):
+                    y[c] = y[c] * (1.0 - g) + g * ye[c] if g < 1.0 else ye[c]
             if f == 0:
                 pen0 = pen
                 for c in range(3):

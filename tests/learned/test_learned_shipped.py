@@ -50,8 +50,9 @@ def test_train_seed_0_reproduces_the_shipped_weights(tmp_path):
 
     metrics = train_default(tmp_path, seed=0, progress=False)
     mine, shipped = load_predictor(tmp_path / "weights.npz"), load_predictor()
-    for a, b in zip(mine.mlp.weights, shipped.mlp.weights):
+    for a, b in zip(mine.mlp.weights + mine.expert.weights, shipped.mlp.weights + shipped.expert.weights):
         np.testing.assert_allclose(a, b, rtol=0, atol=2e-4)
+    np.testing.assert_array_equal(mine.expert_domain, shipped.expert_domain)
     for key in ("median", "p95"):
         assert metrics["improved"]["external/stacking"]["point_m"][key] == pytest.approx(
             METRICS["improved"]["external/stacking"]["point_m"][key], rel=1e-4)

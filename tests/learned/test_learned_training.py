@@ -5,12 +5,13 @@ import pytest
 
 from learned_contact import load_predictor
 from learned_contact.paper_mlp import PaperConfig
-from learned_contact.training import TrainConfig, train_default
+from learned_contact.training import ExpertConfig, TrainConfig, train_default
 
 pytestmark = pytest.mark.torch  # trains with torch (tests/conftest.py: skipped where it is not installed)
 
 TINY = TrainConfig(n_general=1500, n_stacking=1500, n_test_general=300, n_test_stacking=300, epochs=3,
-                   hidden=(32, 32), paper=PaperConfig(n_train=500, n_val=300, n_test=300, restarts=1, max_epochs=3))
+                   hidden=(32, 32), paper=PaperConfig(n_train=500, n_val=300, n_test=300, restarts=1, max_epochs=3),
+                   expert=ExpertConfig(n_resting=500, n_resting_wide=500, epochs=3), n_test_resting=300)
 
 
 @pytest.mark.slow
@@ -19,8 +20,11 @@ def test_train_default_is_reproducible_from_seed(tmp_path, monkeypatch):
     m1 = train_default(tmp_path / "a", seed=3, progress=False, config=TINY)
     m2 = train_default(tmp_path / "b", seed=3, progress=False, config=TINY)
     a, b = load_predictor(tmp_path / "a" / "weights.npz"), load_predictor(tmp_path / "b" / "weights.npz")
-    for wa, wb in zip(a.mlp.weights, b.mlp.weights):
+    for wa, wb in zip(a.mlp.weights + a.expert.weights, b.mlp.weights + b.expert.weights):
         np.testing.assert_array_equal(wa, wb)
+    # the expert is its own network, trained on resting poses only
+    assert not np.allclose(a.expert.weights[1], a.mlp.weights[1])
+    assert m1["improved"]["external/resting"]["point_m"]["n"] == 300
     assert m1["improved"]["external/stacking"]["point_m"] == m2["improved"]["external/stacking"]["point_m"]
     for name in ("weights.npz", "paper_weights.npz", "config.json", "metrics.json", "report.md"):
         assert (tmp_path / "a" / name).is_file()

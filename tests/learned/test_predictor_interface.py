@@ -105,7 +105,7 @@ def _broken(tmp_path, name, **changes):
 
 @pytest.mark.parametrize("changes, match", [
     (dict(kind=np.array("transformer")), r"field 'kind' is 'transformer'; expected one of \['improved', 'paper'\]"),
-    (dict(format_version=np.array(7)), r"field 'format_version' is 7; expected 1"),
+    (dict(format_version=np.array(7)), r"field 'format_version' is 7; expected 1 or 2"),
     (dict(**{"mlp/W1": np.zeros((5, 64))}), r"field 'mlp/W1' has shape \(5, 64\)"),
     (dict(**{"mlp/b2": None}), r"field 'mlp/b2' is missing"),
     (dict(**{"mlp/activation": np.array("gelu")}), r"field 'mlp/activation' is 'gelu'"),

@@ -1,0 +1,194 @@
+"""The resting expert (learned_contact.expert, issue 20): its gate opens on every resting
+pose, shuts beyond the margin it was trained on, hands over continuously, and changes
+nothing where it is shut; the file format carries it or refuses it clearly."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from learned_contact import load_predictor
+from learned_contact.encodings import frame_blend, reflect
+from learned_contact.errors import WeightsError
+from learned_contact.expert import default_domain, gate
+from learned_contact.onnx_export import probe_poses
+from learned_contact.sampling import RESTING_RANGES
+from testbed.geometry.boxes import sat_normal
+from testbed.geometry.rotations import rotation_from_rpy
+
+SIZE_20FT = np.array([6.058, 2.438, 2.591])
+TOP = SIZE_20FT[2]  # B's centre height on A when just touching [m]
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return load_predictor(compiled=False)
+
+
+def _gate(p, R, sA, sB, domain=None):
+    """(n,) the gate of poses in A's frame, in their own octant frame."""
+    sigma = np.where(p >= 0.0, 1.0, -1.0)
+    p_c, R_c = reflect(sigma, p, R)
+    return gate(p_c, R_c, sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1], default_domain() if domain is None else domain)
+
+
+def _stack(depth=2e-4, roll_deg=0.0, pitch_deg=0.0, yaw_deg=0.0, x=0.1, y=0.05):
+    """A 20 ft box B resting on a 20 ft box A: (p (1, 3), R (1, 3, 3), size (1, 3)); depth
+    is the separating-axis overlap [m] (exact: B's lowest corner sits `depth` into A)."""
+    R = rotation_from_rpy(np.radians([[roll_deg, pitch_deg, yaw_deg]]))
+    p = np.array([[x, y, TOP]])
+    lift = sat_normal(p, R, 0.5 * SIZE_20FT[None], 0.5 * SIZE_20FT[None])[1]  # overlap at TOP
+    return p - np.array([[0.0, 0.0, depth - lift[0]]]), R, SIZE_20FT[None]
+
+
+def test_the_shipped_predictor_carries_the_expert_and_its_domain(shipped):
+    assert shipped.expert is not None
+    np.testing.assert_array_equal(shipped.expert_domain, default_domain())
+    assert shipped.meta["config"]["expert"]["n_resting"] > 0
+
+
+def test_the_gate_is_open_on_every_resting_pose():
+    """g = 1 on all of sampling's "resting" distribution (the held-out resting set's
+    poses), so the resting gates measure the expert alone."""
+    p, R, sA, sB = probe_poses(3000, 31, "resting")
+    np.testing.assert_array_equal(_gate(p, R, sA, sB), 1.0)
+
+
+def test_the_gate_ramps_inside_the_wide_training_ranges_and_is_the_same_in_every_frame():
+    """On "resting_wide" poses (the expert's margin) the gate is open, ramping and shut in
+    the proportions its bounds give, none of them beyond that distribution's own ranges
+    with g > 0; every octant frame of a pose gets the same g (the predictor blends frames
+    near A's planes). Expected fractions: open = depth 0.89 (log-uniform 5 um-1 mm below
+    0.55 mm) x tilt 0.40 (the disc of 0.0714 deg in the +-0.1 deg square) x yaw 0.67 x
+    offsets 0.64 = 0.15; shut = tilt beyond the 0.1 deg disc, 1 - pi / 4 = 0.21 (measured
+    0.17 and 0.21 on 3 000 poses; bands of about +-4 standard errors)."""
+    p, R, sA, sB = probe_poses(3000, 32, "resting_wide")
+    g = _gate(p, R, sA, sB)
+    assert 0.12 < np.mean(g == 1.0) < 0.19 and 0.18 < np.mean(g == 0.0) < 0.25
+    depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
+    (_, d_max), tilt, yaw, offset = RESTING_RANGES["resting_wide"]
+    assert np.all(depth[g > 0] <= d_max) and np.all(np.abs(p[g > 0, :2]) <= offset)
+    near = frame_blend(p)
+    assert len(near) > 1  # some poses lie within the band of a plane
+    for sigma, _ in near:
+        p_c, R_c = reflect(sigma, p, R)
+        np.testing.assert_array_equal(gate(p_c, R_c, depth, default_domain()), g)
+
+
+@pytest.mark.parametrize("quantity, inside, outside", [
+    ("depth", 5.4e-4, 1.0001e-3),  # [m]: inner bound 0.55 mm, outer 1 mm
+    ("roll_deg", 0.0705, 0.1001),  # B's tilt: inner 1.01 x sqrt(2) x 0.05 deg, outer 0.1 deg
+    ("pitch_deg", 0.0705, 0.1001),
+    ("yaw_deg", 2.01, 3.001),
+    ("x", 0.4, 0.5001),  # [m]
+    ("y", -0.4, -0.5001),
+])
+def test_the_gate_holds_its_bounds_on_each_quantity(quantity, inside, outside):
+    """One quantity at a time from a centred resting stack: g = 1 up to the inner bound,
+    0 beyond the outer one, each other quantity inside."""
+    assert _gate(*_stack(**{quantity: inside}), SIZE_20FT[None])[0] == 1.0
+    assert _gate(*_stack(**{quantity: outside}), SIZE_20FT[None])[0] == 0.0
+
+
+def test_where_the_gate_is_shut_the_answer_is_the_main_networks_bit_for_bit(shipped):
+    """The expert must not leak into other regimes: on stacking, general and outside
+    probe poses and on an overhang (B's centre 3.1 m off A's, issue 23's scenes) every
+    pose with g = 0 is answered exactly as by the same predictor without an expert."""
+    plain = dataclasses.replace(shipped, expert=None, expert_domain=None)
+    poses = [probe_poses(1500, 41, "stacking"), probe_poses(1500, 42, "general"),
+             probe_poses(800, 43, "stacking", max_depth=0.05, max_tilt_deg=10.0)]
+    p, R, sA = _stack(depth=3e-5, x=3.1, y=0.0)
+    poses.append((p, R, sA, sA))
+    for p, R, sA, sB in poses:
+        shut = _gate(p, R, sA, sB) == 0.0
+        assert shut.mean() > 0.95
+        a, b = shipped.predict(p, R, size_A=sA, size_B=sB), plain.predict(p, R, size_A=sA, size_B=sB)
+        np.testing.assert_array_equal(a[0][shut], b[0][shut])
+        np.testing.assert_array_equal(a[1][shut], b[1][shut])
+
+
+@pytest.mark.parametrize("quantity, bounds", [("depth", (5.5e-4, 1e-3)), ("x", (0.4, 0.5)),
+                                              ("yaw_deg", (2.02, 3.0))])
+def test_the_hand_over_is_continuous(shipped, quantity, bounds):
+    """Across the ramp of one quantity the answer moves by the answers' own slope: a step
+    of 1e-9 (in that quantity's unit) moves the point by < 1e-6 m and the normal by
+    < 1e-6, at both bounds and mid-ramp. A hard switch would jump by the two networks'
+    difference there, which is asserted to be over 1 mm (so this test can fail)."""
+    plain = dataclasses.replace(shipped, expert=None, expert_domain=None)
+    expert_only = dataclasses.replace(shipped, expert_domain=np.array([1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 10.0, 20.0]))
+    lo, hi = bounds
+    for q in (lo, 0.5 * (lo + hi), hi):
+        a = shipped.predict(*_stack(**{quantity: q})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        b = shipped.predict(*_stack(**{quantity: q + 1e-9})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        assert np.abs(a[0] - b[0]).max() < 1e-6 and np.abs(a[1] - b[1]).max() < 1e-6
+    mid = _stack(**{quantity: 0.5 * (lo + hi)})[:2]
+    gap = np.linalg.norm(plain.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0]
+                         - expert_only.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0])
+    assert gap > 1e-3
+
+
+def test_compiled_equals_numpy_where_the_expert_answers():
+    """The numba kernel's gate and expert against the numpy reference on resting and
+    resting_wide poses (ramps included), to the tolerance the compiled tests hold (1e-9)."""
+    fast, ref = load_predictor(), load_predictor(compiled=False)
+    for k, dist in enumerate(("resting", "resting_wide")):
+        p, R, sA, sB = probe_poses(2000, 51 + k, dist)
+        a, b = fast.predict(p, R, size_A=sA, size_B=sB), ref.predict(p, R, size_A=sA, size_B=sB)
+        np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-9)
+
+
+def test_a_saved_expert_loads_back_with_the_same_answers(shipped, tmp_path):
+    path = shipped.save(tmp_path / "w.npz")
+    with np.load(path) as z:
+        assert int(z["format_version"]) == 2 and "expert/W0" in z.files
+    back = load_predictor(path, compiled=False)
+    p, R, sA, sB = probe_poses(300, 61, "resting_wide")
+    np.testing.assert_array_equal(back.predict(p, R, size_A=sA, size_B=sB)[0], shipped.predict(p, R, size_A=sA, size_B=sB)[0])
+    plain = dataclasses.replace(shipped, expert=None, expert_domain=None).save(tmp_path / "plain.npz")
+    with np.load(plain) as z:
+        assert int(z["format_version"]) == 1 and not any(k.startswith("expert/") for k in z.files)
+
+
+def _mutated(shipped, tmp_path, change: dict):
+    path = shipped.save(tmp_path / "w.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    for key, value in change.items():
+        if value is None:
+            arrays.pop(key)
+        else:
+            arrays[key] = value
+    out = tmp_path / "bad.npz"
+    np.savez(out, **arrays)
+    return out
+
+
+@pytest.mark.parametrize("change, match", [
+    ({"format_version": np.array(1)}, r"field 'format_version' is 1 but the file carries a resting expert"),
+    ({k: None for k in ("expert/W0", "expert/W1", "expert/W2", "expert/b0", "expert/b1", "expert/b2", "expert/x_mean",
+                        "expert/x_std", "expert/activation", "expert/domain")},
+     r"field 'expert/W0' is missing \(format_version 2 carries a resting expert\)"),
+    ({"expert/domain": None}, r"field 'expert/domain' is missing"),
+    ({"expert/domain": np.zeros(7)}, r"field 'expert/domain' has shape \(7,\), expected \(8,\)"),
+    ({"expert/domain": np.array([1e-3, 5e-4, 0, 1, 0, 1, 0, 1.0])}, r"depth_in \[m\] = 0.001 .* expected 0 <= in < out"),
+    ({"expert/domain": np.array([np.nan] * 8)}, r"field 'expert/domain' holds NaN or inf"),
+    ({"expert/W1": np.zeros((5, 64))}, r"field 'expert/W1' has shape \(5, 64\)"),
+    ({"expert/x_std": np.full(91, np.inf)}, r"field 'expert/\*' holds NaN or inf"),
+])
+def test_a_broken_expert_is_refused_naming_the_field(shipped, tmp_path, change, match):
+    with pytest.raises(WeightsError, match=match):
+        load_predictor(_mutated(shipped, tmp_path, change))
+
+
+def test_the_paper_kind_refuses_an_expert(tmp_path):
+    paper = load_predictor("paper")
+    path = paper.save(tmp_path / "p.npz")
+    with np.load(path) as z:
+        arrays = dict(z)
+    shipped = load_predictor()
+    arrays.update(shipped.expert.to_arrays("expert/"), **{"expert/domain": default_domain(),
+                                                          "format_version": np.array(2)})
+    np.savez(tmp_path / "bad.npz", **arrays)
+    with pytest.raises(WeightsError, match=r"field 'expert/\*' is present in a 'paper' file"):
+        load_predictor(tmp_path / "bad.npz")
