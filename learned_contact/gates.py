@@ -58,12 +58,12 @@ THRESHOLDS = {
     "outside normal error p95": (1.5, "deg"),  # 0.82-1.12 deg (prior 1.7-2.6 deg)
     # resting (issue 20): the resting expert (learned_contact.expert) answers every pose of this set; the
     # absolute bounds are issue 20's targets (the main network alone: median 2.1-2.3 cm, p95 11.5-13.4 cm)
-    "resting point error median": (0.002, "m"),  # 1.33-1.50 mm (prior 2.0-2.6 cm; point contact 8.5-10.5 cm)
-    "resting point error p95": (0.05, "m"),  # 1.12-1.32 cm (prior 14.9-20.4 cm; point contact 99-116 cm)
-    "resting point error p95 vs prior": (0.1, "x"),  # 0.058-0.076 (the main network alone 0.60-0.78)
-    # issue 20's normal target (p95 <= 0.5 deg; measured 0.015-0.016 deg) cannot be a plain gate: the prior
+    "resting point error median": (0.002, "m"),  # 1.34-1.59 mm (prior 2.0-2.6 cm; point contact 8.5-10.5 cm)
+    "resting point error p95": (0.05, "m"),  # 0.90-1.68 cm (prior 14.9-20.4 cm; point contact 99-116 cm)
+    "resting point error p95 vs prior": (0.12, "x"),  # 0.060-0.087 (the main network alone 0.60-0.78)
+    # issue 20's normal target (p95 <= 0.5 deg; measured 0.013-0.017 deg) cannot be a plain gate: the prior
     # (0.041-0.044 deg) and point contact pass it. Against the prior it can: 0.5 x the prior is far inside it.
-    "resting normal error p95 vs prior": (0.5, "x"),  # 0.36-0.39 (the main network alone 45-56)
+    "resting normal error p95 vs prior": (0.5, "x"),  # 0.31-0.38 (the main network alone 45-56)
 }
 # Targets out of reach today, pinned like the stress suite's expected failures: the gate
 # holds while the figure stays in the band (factors of the pinned figure), so a network

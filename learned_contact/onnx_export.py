@@ -103,10 +103,11 @@ def _clip_outside(g, point, depth, hA):
     return g.where(out, g.clip(point, g.op("Neg", bound), bound), point)
 
 
-def _expert_gate(g, p_c, R_c, depth, domain):
-    """(M, 1) learned_contact.expert.gate of canonical rows p_c (M, 3), R_c (M, 3, 3),
-    depth (M, 1) [m]; both networks are evaluated on every row and blended (at g = 0
-    the main network's answer is kept exactly: y * 1 + 0 * y_expert)."""
+def _expert_weights(g, p_c, R_c, hA, hB, depth, domain):
+    """(w_main, w_expert) (M, 1) each: learned_contact.expert.weights of canonical rows
+    p_c (M, 3), R_c (M, 3, 3), half extents hA, hB (M, 3), depth (M, 1) [m]; both
+    networks are evaluated on every row and blended (where the gate is shut the main
+    network's answer is kept exactly: 1 * y + 0 * y_expert)."""
 
     def ramp_off(t, lo, hi):  # 1 - smoothstep((t - lo) / (hi - lo)) (expert._ramp_off)
         u = g.clip(g.div(g.sub(t, g.f(lo)), g.f(hi - lo)), g.f(0.0), g.f(1.0))
@@ -117,11 +118,18 @@ def _expert_gate(g, p_c, R_c, depth, domain):
     sin_tilt = g.op("Sqrt", g.add(g.mul(col(z_B, 0), col(z_B, 0)), g.mul(col(z_B, 1), col(z_B, 1))))
     sin_yaw = g.op("Abs", g.sq(g.take(g.take(R_c, [1], 1), [0], 2), [2]))
     d = [float(v) for v in domain]
-    out = ramp_off(depth, d[0], d[1])
+    gate = ramp_off(depth, d[0], d[1])
     for t, (lo, hi) in ((sin_tilt, d[2:4]), (sin_yaw, d[4:6]), (g.op("Abs", col(p_c, 0)), d[6:8]),
                         (g.op("Abs", col(p_c, 1)), d[6:8])):
-        out = g.mul(out, ramp_off(t, lo, hi))
-    return out
+        gate = g.mul(gate, ramp_off(t, lo, hi))
+    # the slab ratio (expert.slab_ratio): where depth <= 0 the scale s is 1
+    rise = g.mul(g.f(2.0), g.add(g.mul(g.op("Abs", col(z_B, 0)), g.op("Min", col(hA, 0), col(hB, 0))),
+                                 g.mul(g.op("Abs", col(z_B, 1)), g.op("Min", col(hA, 1), col(hB, 1)))))
+    positive = g.op("Greater", depth, g.f(0.0))
+    ratio = g.div(rise, g.where(positive, depth, g.f(1.0)))
+    s = g.where(positive, g.sub(g.f(1.0), ramp_off(ratio, 0.0, d[8])), g.f(1.0))
+    c = g.sub(g.f(1.0), g.mul(gate, g.sub(g.f(1.0), s)))
+    return g.mul(g.sub(g.f(1.0), gate), c), g.mul(gate, c)
 
 
 def improved_graph(predictor):
@@ -148,9 +156,9 @@ def improved_graph(predictor):
              g.mul(depth, g.f(30.0)), edge, g.mul(corners_B, s), g.mul(g.clip(depth_B, g.f(-0.5), g.f(0.5)), ten),
              g.mul(g.clip(depth_A, g.f(-0.5), g.f(0.5)), ten), axis=1)
     y = og.mlp(g, x, predictor.mlp)
-    if predictor.expert is not None:  # the resting expert (learned_contact.expert), blended by its gate
-        gate = _expert_gate(g, p_c, R_c, depth, predictor.expert_domain)
-        y = g.add(g.mul(y, g.sub(g.f(1.0), gate)), g.mul(gate, og.mlp(g, x, predictor.expert)))
+    if predictor.expert is not None:  # the resting expert (learned_contact.expert.weights)
+        w_main, w_expert = _expert_weights(g, p_c, R_c, hA, hB, depth, predictor.expert_domain)
+        y = g.add(g.mul(w_main, y), g.mul(w_expert, og.mlp(g, x, predictor.expert)))
     point_t = g.mul(coef, g.mul(sigma, g.add(point_est, g.mul(g.f(POINT_STEP), g.take(y, [0, 1, 2], 1)))))
     normal_t = g.mul(coef, g.mul(sigma, g.add(normal_est, g.take(y, [3, 4, 5], 1))))
     zeros = g.op("Expand", g.f(np.zeros((1, 3))), g.op("Shape", p0))

@@ -24,7 +24,7 @@ import numpy as np
 
 from learned_contact.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, MLPPredictor
 from learned_contact.encodings import features, frame_blend, reflect
-from learned_contact.expert import gate
+from learned_contact.expert import weights
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
 from learned_contact.mlp import NumpyMLP
 from testbed.geometry.boxes import sat_normal
@@ -59,24 +59,22 @@ class ContactPredictor(MLPPredictor):
             from learned_contact.compiled import pack_mlp
 
             packed = pack_mlp(self.expert if self.expert is not None else self.mlp)
-            domain = self.expert_domain if self.expert is not None else np.zeros(8)
+            domain = self.expert_domain if self.expert is not None else np.zeros(9)
             object.__setattr__(self, "_packed_expert", (*packed, np.ascontiguousarray(domain), self.expert is not None))
         super().__post_init__()
 
-    def _correction(self, x, p_c, R_c, depth):
+    def _correction(self, x, p_c, R_c, h_A, h_B, depth):
         """(n, 6) the network output for features x (n, F) of canonical poses: the main
-        network's, or where the expert's gate is open the blend with the expert's."""
+        network's, or where the expert's gate is open its weighted blend with the
+        expert's (learned_contact.expert.weights); each network only where it counts."""
         if self.expert is None:
             return self.mlp(x)
-        g = gate(p_c, R_c, depth, self.expert_domain)
-        y = np.empty((len(x), 6))
-        main, expert = g < 1.0, g > 0.0
-        y[main] = self.mlp(x[main])
-        y[~main] = 0.0
-        both = main & expert
-        y[both] *= (1.0 - g[both])[:, None]
+        w_main, w_expert = weights(p_c, R_c, h_A, h_B, depth, self.expert_domain)
+        y = np.zeros((len(x), 6))
+        main, expert = w_main > 0.0, w_expert > 0.0
+        y[main] = w_main[main, None] * self.mlp(x[main])
         if np.any(expert):
-            y[expert] += g[expert, None] * self.expert(x[expert])
+            y[expert] += w_expert[expert, None] * self.expert(x[expert])
         return y
 
     def _extra_arrays(self):
@@ -95,7 +93,7 @@ class ContactPredictor(MLPPredictor):
                 continue
             p_c, R_c = reflect(sigma[rows], p[rows], R[rows])
             x, point_est, normal_est = features(p_c, R_c, h_A[rows], 0.5 * sB[rows])
-            y = self._correction(x, p_c, R_c, depth[rows])
+            y = self._correction(x, p_c, R_c, h_A[rows], 0.5 * sB[rows], depth[rows])
             c = coef[rows, None]
             point[rows] += c * (sigma[rows] * (point_est + POINT_STEP * y[:, :3]))
             normal[rows] += c * (sigma[rows] * (normal_est + y[:, 3:6]))

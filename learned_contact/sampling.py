@@ -26,6 +26,10 @@ Penetration depth is uniform in [0, 3 cm] in both.
 - "resting_wide": the same with every range widened to the resting expert's margin
   (RESTING_RANGES: 5 um to 1 mm, 0.1 deg, 3 deg, 0.5 m), so that the expert is trained
   wherever its gate (learned_contact.expert) lets it answer, ramps included.
+- "resting_level": "resting" with the tilt of B's z axis from A's log-uniform in
+  RESTING_LEVEL_TILT (1e-9 to 1e-3 rad, any direction) instead of roll and pitch uniform
+  within 0.05 deg, where tilts below 1e-5 rad are rare: stacks settled under a centred
+  load sit that level, and there the tilt across the patch is a fraction of the overlap.
 """
 
 from __future__ import annotations
@@ -39,14 +43,16 @@ from learned_contact.errors import DatasetError
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
-DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide")  # append only: the index seeds the stream
+DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
 MAX_DEPTH = 0.03  # [m]
 RESTING_DEPTH = (5e-6, 5e-4)  # [m] log-uniform penetration of the "resting" distribution
 RESTING_TILT_DEG, RESTING_YAW_DEG, RESTING_OFFSET = 0.05, 2.0, 0.4  # [deg], [deg], [m]
 # distribution -> (depth range [m] log-uniform, roll/pitch bound [deg], yaw bound [deg], offset bound [m])
 RESTING_RANGES = {"resting": (RESTING_DEPTH, RESTING_TILT_DEG, RESTING_YAW_DEG, RESTING_OFFSET),
-                  "resting_wide": ((5e-6, 1e-3), 0.1, 3.0, 0.5)}
+                  "resting_wide": ((5e-6, 1e-3), 0.1, 3.0, 0.5),
+                  "resting_level": (RESTING_DEPTH, None, RESTING_YAW_DEG, RESTING_OFFSET)}
+RESTING_LEVEL_TILT = (1e-9, 1e-3)  # [rad] log-uniform tilt of "resting_level"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -104,7 +110,7 @@ def _footprint_overlap(x, y, yaw, half_a, half_b) -> np.ndarray:
 
 def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_depth: float | None = None,
            max_tilt_deg: float | None = None) -> Proposals:
-    """n seeded proposals of `distribution` ("stacking", "general", "resting" or "resting_wide") for
+    """n seeded proposals of `distribution` (DISTRIBUTIONS) for
     ordered type pairs drawn uniformly from `types` x `types`.
 
     max_depth [m] (default MAX_DEPTH) and max_tilt_deg (stacking roll and pitch bound,
@@ -157,7 +163,12 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
         depths, tilt, yaw, offset = RESTING_RANGES[distribution]
         depth = np.exp(rng.uniform(*np.log(depths), size=n))
         rpy = np.empty((n, 3))
-        rpy[:, :2] = rng.uniform(-np.radians(tilt), np.radians(tilt), size=(n, 2))
+        if tilt is None:  # "resting_level": tilt log-uniform, in a uniform direction
+            angle = np.exp(rng.uniform(*np.log(RESTING_LEVEL_TILT), size=n))
+            heading = rng.uniform(0.0, 2.0 * np.pi, size=n)
+            rpy[:, 0], rpy[:, 1] = angle * np.cos(heading), angle * np.sin(heading)
+        else:
+            rpy[:, :2] = rng.uniform(-np.radians(tilt), np.radians(tilt), size=(n, 2))
         rpy[:, 2] = rng.uniform(-np.radians(yaw), np.radians(yaw), size=n)
         R_AB = rotation_from_rpy(rpy)
         xy = rng.uniform(-offset, offset, size=(n, 2))

@@ -41,6 +41,7 @@ class ExpertConfig:
 
     n_resting: int = 60_000  # labelled "resting" poses (training + validation)
     n_resting_wide: int = 60_000  # labelled "resting_wide" poses: the gate's ramps
+    n_resting_level: int = 60_000  # labelled "resting_level" poses: tilts down to 1e-9 rad
     epochs: int = 160
     point_beta: float = 0.005  # [m] smooth L1 beta of the point loss
 
@@ -203,6 +204,8 @@ def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
     if config.expert is not None:
         out["expert_resting"] = make_dataset("resting", config.expert.n_resting, s_tr, **kw)
         out["expert_resting_wide"] = make_dataset("resting_wide", config.expert.n_resting_wide, s_tr, **kw)
+        if config.expert.n_resting_level:
+            out["expert_resting_level"] = make_dataset("resting_level", config.expert.n_resting_level, s_tr, **kw)
     if config.n_test_resting:
         out["resting_test"] = make_dataset("resting", config.n_test_resting, s_te, **kw)
     return out
@@ -210,11 +213,12 @@ def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
 
 def train_expert(data: dict, config: TrainConfig, *, progress: bool = True):
     """The resting expert of `config` on the labelled sets of default_datasets:
-    (NumpyMLP, info dict, (resting, resting_wide) validation Datasets). The main
-    network's recipe with ExpertConfig's epochs and point beta, on "resting" and
-    "resting_wide" poses only (10 % of each held for validation)."""
+    (NumpyMLP, info dict, validation Datasets per distribution). The main network's
+    recipe with ExpertConfig's epochs and point beta, on "resting", "resting_wide" and
+    "resting_level" poses only (10 % of each held for validation)."""
     ex = config.expert
-    pools = [_split(data[k], int(config.n_val_fraction * len(data[k]))) for k in ("expert_resting", "expert_resting_wide")]
+    pools = [_split(data[k], int(config.n_val_fraction * len(data[k])))
+             for k in ("expert_resting", "expert_resting_wide", "expert_resting_level") if k in data]
     recipe = dataclasses.replace(config, epochs=ex.epochs, point_beta=ex.point_beta, mirror=False, deep_weight=0.0)
     mlp, info = train_improved(_concat([t for t, _ in pools]), _concat([v for _, v in pools]), recipe, progress=progress)
     return mlp, info, tuple(v for _, v in pools)

@@ -217,12 +217,22 @@ def expert_gate(p_c, R_c, pen, domain):
 
 
 @njit(cache=True)
+def expert_weights(p_c, R_c, hA, hB, pen, domain):
+    """learned_contact.expert.weights for one canonical pose: (w_main, w_expert)."""
+    g = expert_gate(p_c, R_c, pen, domain)
+    rise = 2.0 * (abs(R_c[0, 2]) * min(hA[0], hB[0]) + abs(R_c[1, 2]) * min(hA[1], hB[1]))
+    s = 1.0 - _ramp_off(rise / pen, 0.0, domain[8]) if pen > 0.0 else 1.0
+    c = 1.0 - g * (1.0 - s)
+    return (1.0 - g) * c, g * c
+
+
+@njit(cache=True)
 def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims, eact, domain, has_expert):
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
     the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
     sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
     the resting expert (eparams, edims, eact: pack_mlp of it; domain (8,): its gate,
-    learned_contact.expert), each network evaluated only where its weight is not 0.
+    learned_contact.expert.weights), each network evaluated only where its weight is not 0.
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -259,13 +269,18 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
             reflect(p[r], R[r], sigma, p_c, R_c)
             pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
             features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
-            g = expert_gate(p_c, R_c, pen, domain) if has_expert else 0.0
-            if g < 1.0:
+            w_main, w_expert = expert_weights(p_c, R_c, hA, hB, pen, domain) if has_expert else (1.0, 0.0)
+            if w_main > 0.0:
                 mlp_forward(x, params, dims, act, h0, h1, y)
-            if g > 0.0:
+                for c in range(6):
+                    y[c] = w_main * y[c]
+            else:
+                for c in range(6):
+                    y[c] = 0.0
+            if w_expert > 0.0:
                 mlp_forward(x, eparams, edims, eact, h0, h1, ye)
                 for c in range(6):
-                    y[c] = y[c] * (1.0 - g) + g * ye[c] if g < 1.0 else ye[c]
+                    y[c] += w_expert * ye[c]
             if f == 0:
                 pen0 = pen
                 for c in range(3):

@@ -10,7 +10,7 @@ import pytest
 from learned_contact import load_predictor
 from learned_contact.encodings import frame_blend, reflect
 from learned_contact.errors import WeightsError
-from learned_contact.expert import default_domain, gate
+from learned_contact.expert import R_SLAB, default_domain, gate, slab_ratio, weights
 from learned_contact.onnx_export import probe_poses
 from learned_contact.sampling import RESTING_RANGES
 from testbed.geometry.boxes import sat_normal
@@ -110,18 +110,19 @@ def test_where_the_gate_is_shut_the_answer_is_the_main_networks_bit_for_bit(ship
 @pytest.mark.parametrize("quantity, bounds", [("depth", (5.5e-4, 1e-3)), ("x", (0.4, 0.5)),
                                               ("yaw_deg", (2.02, 3.0))])
 def test_the_hand_over_is_continuous(shipped, quantity, bounds):
+    # a tilted stack (r = 30 to 60, beyond R_SLAB), so that the expert's correction is whole inside
     """Across the ramp of one quantity the answer moves by the answers' own slope: a step
     of 1e-9 (in that quantity's unit) moves the point by < 1e-6 m and the normal by
     < 1e-6, at both bounds and mid-ramp. A hard switch would jump by the two networks'
     difference there, which is asserted to be over 1 mm (so this test can fail)."""
     plain = dataclasses.replace(shipped, expert=None, expert_domain=None)
-    expert_only = dataclasses.replace(shipped, expert_domain=np.array([1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 10.0, 20.0]))
+    expert_only = dataclasses.replace(shipped, expert_domain=np.array([1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 10.0, 20.0, 1e-12]))
     lo, hi = bounds
     for q in (lo, 0.5 * (lo + hi), hi):
-        a = shipped.predict(*_stack(**{quantity: q})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
-        b = shipped.predict(*_stack(**{quantity: q + 1e-9})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        a = shipped.predict(*_stack(roll_deg=0.01, **{quantity: q})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        b = shipped.predict(*_stack(roll_deg=0.01, **{quantity: q + 1e-9})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
         assert np.abs(a[0] - b[0]).max() < 1e-6 and np.abs(a[1] - b[1]).max() < 1e-6
-    mid = _stack(**{quantity: 0.5 * (lo + hi)})[:2]
+    mid = _stack(roll_deg=0.01, **{quantity: 0.5 * (lo + hi)})[:2]
     gap = np.linalg.norm(plain.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0]
                          - expert_only.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0])
     assert gap > 1e-3
@@ -129,9 +130,10 @@ def test_the_hand_over_is_continuous(shipped, quantity, bounds):
 
 def test_compiled_equals_numpy_where_the_expert_answers():
     """The numba kernel's gate and expert against the numpy reference on resting and
-    resting_wide poses (ramps included), to the tolerance the compiled tests hold (1e-9)."""
+    resting_wide poses (ramps included) and on near-level ones (the slab ratio's ramp), to
+    the tolerance the compiled tests hold (1e-9)."""
     fast, ref = load_predictor(), load_predictor(compiled=False)
-    for k, dist in enumerate(("resting", "resting_wide")):
+    for k, dist in enumerate(("resting", "resting_wide", "resting_level")):
         p, R, sA, sB = probe_poses(2000, 51 + k, dist)
         a, b = fast.predict(p, R, size_A=sA, size_B=sB), ref.predict(p, R, size_A=sA, size_B=sB)
         np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)
@@ -170,9 +172,10 @@ def _mutated(shipped, tmp_path, change: dict):
                         "expert/x_std", "expert/activation", "expert/domain")},
      r"field 'expert/W0' is missing \(format_version 2 carries a resting expert\)"),
     ({"expert/domain": None}, r"field 'expert/domain' is missing"),
-    ({"expert/domain": np.zeros(7)}, r"field 'expert/domain' has shape \(7,\), expected \(8,\)"),
-    ({"expert/domain": np.array([1e-3, 5e-4, 0, 1, 0, 1, 0, 1.0])}, r"depth_in \[m\] = 0.001 .* expected 0 <= in < out"),
-    ({"expert/domain": np.array([np.nan] * 8)}, r"field 'expert/domain' holds NaN or inf"),
+    ({"expert/domain": np.zeros(8)}, r"field 'expert/domain' has shape \(8,\), expected \(9,\)"),
+    ({"expert/domain": np.array([1e-3, 5e-4, 0, 1, 0, 1, 0, 1.0, 0.01])}, r"depth_in \[m\] = 0.001 .* expected 0 <= in < out"),
+    ({"expert/domain": np.array([5e-4, 1e-3, 0, 1, 0, 1, 0, 1.0, 0.0])}, r"r_slab = 0.0: expected > 0"),
+    ({"expert/domain": np.array([np.nan] * 9)}, r"field 'expert/domain' holds NaN or inf"),
     ({"expert/W1": np.zeros((5, 64))}, r"field 'expert/W1' has shape \(5, 64\)"),
     ({"expert/x_std": np.full(91, np.inf)}, r"field 'expert/\*' holds NaN or inf"),
 ])
@@ -192,3 +195,62 @@ def test_the_paper_kind_refuses_an_expert(tmp_path):
     np.savez(tmp_path / "bad.npz", **arrays)
     with pytest.raises(WeightsError, match=r"field 'expert/\*' is present in a 'paper' file"):
         load_predictor(tmp_path / "bad.npz")
+
+
+def test_on_a_level_stack_the_answer_is_the_priors_and_the_correction_returns_smoothly():
+    """Where the prior is exact (a level stack: the overlap is a slab) the correction
+    vanishes by construction: at r = 0 the predictor answers its geometric prior bit for
+    bit (measured against Drake on 214 poses with r < 0.001: prior 0.023 mm median, the
+    expert's uncorrected answer 0.56 mm); the weight grows smoothly with r and is whole
+    from R_SLAB on. A predictor without the construction fails the first assertion."""
+    from learned_contact.gates import GeometricPrior
+
+    shipped = load_predictor()
+    p, R, s = _stack(depth=1e-4)
+    point, normal = shipped.predict(p, R, size_A=s, size_B=s)
+    prior_point, prior_normal = GeometricPrior().predict(p, R, size_A=s, size_B=s)
+    np.testing.assert_array_equal(point, prior_point)
+    np.testing.assert_allclose(normal, prior_normal, rtol=0, atol=1e-15)
+    # without the construction (r_slab 1e-12: whole from r = 1e-12 on) a stack level to 1e-9 deg gets
+    # the expert's own correction, which moves the point off the prior's
+    without = dataclasses.replace(shipped, expert_domain=np.r_[shipped.expert_domain[:8], 1e-12])
+    p, R, _ = _stack(depth=1e-4, roll_deg=1e-9)
+    near_prior = GeometricPrior().predict(p, R, size_A=s, size_B=s)[0]
+    assert np.linalg.norm(without.predict(p, R, size_A=s, size_B=s)[0] - near_prior) > 1e-5
+    assert np.linalg.norm(shipped.predict(p, R, size_A=s, size_B=s)[0] - near_prior) < 1e-9
+    # the weight along r: 0 at 0, smooth, 1 from R_SLAB
+    h = 0.5 * s
+    ratios, answers = [], []
+    for roll in np.linspace(0.0, 2e-6, 41):  # [deg]; r = 2 tan(roll) h_y / depth, up to ~0.04
+        p, R, _ = _stack(depth=1e-4, roll_deg=roll)
+        sigma = np.where(p >= 0.0, 1.0, -1.0)
+        p_c, R_c = reflect(sigma, p, R)
+        ratios.append(slab_ratio(R_c, h, h, np.array([1e-4]))[0])
+        answers.append(weights(p_c, R_c, h, h, np.array([1e-4]), default_domain())[1][0])
+    ratios, answers = np.array(ratios), np.array(answers)
+    assert answers[0] == 0.0 and np.all(answers[ratios >= R_SLAB] == 1.0) and np.all(np.diff(answers) >= 0.0)
+    assert np.max(np.abs(np.diff(answers))) < 0.1  # no jump between neighbouring tilts (steps of r ~ 1e-3)
+
+
+def test_near_level_stacks_are_answered_within_2_mm_where_the_prior_is_not():
+    """Held-out "resting_level" poses (tilt log-uniform 1e-9 to 1e-3 rad, the regime of a
+    stack settled under a centred load; sampling seed 10 * 0 + 9, not a training seed),
+    labelled by Drake: the shipped predictor's point median is within issue 20's 2 mm
+    (measured 0.70 mm, p95 22 mm; the geometric prior 7.7 mm: it is exact only where the
+    tilt across the patch is a fraction of the overlap), and on the most level third
+    (slab ratio < R_SLAB, 142 poses) it is no worse than the prior's median there
+    (measured 0.128 against 0.135 mm; the expert alone, without the construction of
+    learned_contact.expert, scored 0.55 mm there)."""
+    from learned_contact.gates import GeometricPrior
+    from learned_contact.labels import make_dataset
+    from learned_contact.metrics import point_normal_errors
+
+    ds = make_dataset("resting_level", 400, 9, progress=False, use_cache=False)
+    mine = point_normal_errors(*load_predictor().predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)[0]
+    prior = point_normal_errors(*GeometricPrior().predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)[0]
+    assert np.median(mine) <= 0.002 < np.median(prior)
+    sigma = np.where(ds.p_AB >= 0.0, 1.0, -1.0)
+    _, R_c = reflect(sigma, ds.p_AB, ds.R_AB)
+    level = slab_ratio(R_c, 0.5 * ds.size_A, 0.5 * ds.size_B, ds.depth) < R_SLAB
+    assert level.sum() > 50
+    assert np.median(mine[level]) <= np.median(prior[level])
