@@ -112,6 +112,18 @@ def _broken(tmp_path, name, **changes):
     (dict(supported_sizes=np.zeros((2, 2))), r"field 'supported_sizes' has shape \(2, 2\)"),
     (dict(meta=np.array("{not json")), r"field 'meta' is not JSON"),
     (dict(kind=np.array("paper")), r"field 'mlp/W0' has shape \(91, \d+\) \(bias \(\d+,\)\); expected \(6, m\)"),
+    # the resting expert (format_version 2, learned_contact.expert)
+    (dict(format_version=np.array(1)), r"field 'format_version' is 1 but the file carries a resting expert"),
+    (dict(**{f"expert/{k}": None for k in ("W0", "W1", "W2", "b0", "b1", "b2", "x_mean", "x_std", "activation", "domain")}),
+     r"field 'expert/W0' is missing \(format_version 2 carries a resting expert\)"),
+    (dict(**{"expert/domain": None}), r"field 'expert/domain' is missing"),
+    (dict(**{"expert/domain": np.zeros(8)}), r"field 'expert/domain' has shape \(8,\), expected \(9,\)"),
+    (dict(**{"expert/domain": np.array([1e-3, 5e-4, 0, 1, 0, 1, 0, 1.0, 0.01])}),
+     r"depth_in \[m\] = 0.001 .* expected 0 <= in < out"),
+    (dict(**{"expert/domain": np.array([5e-4, 1e-3, 0, 1, 0, 1, 0, 1.0, 0.0])}), r"r_slab = 0.0: expected > 0"),
+    (dict(**{"expert/domain": np.array([np.nan] * 9)}), r"field 'expert/domain' holds NaN or inf"),
+    (dict(**{"expert/W1": np.zeros((5, 64))}), r"field 'expert/W1' has shape \(5, 64\)"),
+    (dict(**{"expert/x_std": np.full(91, np.inf)}), r"field 'expert/\*' holds NaN or inf"),
 ])
 def test_bad_files_raise_weights_errors_naming_file_and_field(tmp_path, changes, match):
     path = _broken(tmp_path, "improved", **changes)

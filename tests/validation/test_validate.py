@@ -184,9 +184,10 @@ def test_in_scene_learned_gate_can_fail_and_pins_the_known_limit():
 
     assert gate("five_stack", "hydroelastic", 0.013) is True
     assert gate("five_stack", "hydroelastic", 0.05) is False
-    assert gate("two_stack", "hydroelastic", 0.249) is True  # pinned at 0.249 m, band 0.8-1.25x
-    assert gate("two_stack", "hydroelastic", 0.32) is False
+    assert gate("two_stack", "hydroelastic", 0.032) is True  # pinned at 0.032 m, band 0.8-1.25x
+    assert gate("two_stack", "hydroelastic", 0.041) is False
     assert gate("two_stack", "hydroelastic", 0.02) is False  # stale pin
+    assert gate("windy_stack", "hydroelastic", 0.009) is True and gate("windy_stack", "hydroelastic", 0.031) is False
     assert gate("five_stack", "point", 0.5) is None
 
 

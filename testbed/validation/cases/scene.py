@@ -34,18 +34,15 @@ IN_SCENE_POINT_MEDIAN_M = 0.03
 # while the figure stays inside the band around the measured one, so getting worse (or
 # better: the table is stale) fails. scene -> (reason, measured median [m], band factors).
 KNOWN_IN_SCENE_LIMITS = {
-    "two_stack": ("a pose-only predictor cannot see the payload: the top box's 0.8 m COM offset moves Drake's "
-                  "centre of pressure 22 cm from where a centred load would put it, at a pose that is the same "
-                  "to 1e-5 rad (DESIGN.md s.3; 14.7 cm at the earlier 1e8 Pa, 22.4 cm at the shipped 1e9 Pa, 24.9 cm "
-                  "since the predictor blends its octant frames on A's symmetry planes: the stiffer contact needs "
-                  "a 10x smaller tilt to carry the same moment)", 0.2490, (0.8, 1.25)),
-    "windy_stack": ("a pose-only predictor cannot see the wind: its side load shifts Drake's centre of pressure "
-                    "downwind while the pose barely changes (the predictor's point median 7.9 cm from it; 9.9 cm before "
-                    "its octant frames were blended on A's symmetry planes)", 0.0787, (0.8, 1.25)),
+    "two_stack": ("the top box's payload sits 0.8 m off centre: Drake's centre of pressure moves 22 cm towards it, "
+                  "while the box tilts by about 1e-5 rad. The resting expert reads the point from that tilt to a "
+                  "median of 3.2 cm, just over the 3 cm bound (the main network alone, which could not resolve it: "
+                  "22.4-24.9 cm; DESIGN.md s.3)", 0.0320, (0.8, 1.25)),
     "bridge": ("at the shipped 1e9 Pa the bridging box rests 0.03 mm deep on each support (10x shallower than at "
                "1e8 Pa, where this scene passed the 0.03 m gate), and where on each support the pressure centres "
-               "is set by tilts of order 1e-5 rad; the predictor's training depths are uniform in 0-3 cm (0.1 % "
-               "of them below 0.03 mm): more shallow samples are the follow-up (issue 12 note)", 0.0526, (0.8, 1.25)),
+               "is set by tilts of order 1e-5 rad. The bridging box's centre is over 0.5 m off each support's, "
+               "beyond the resting expert's gate (learned_contact/expert.py), so the main network answers, whose "
+               "training depths are uniform in 0-3 cm (0.1 % of them below 0.03 mm)", 0.0526, (0.8, 1.25)),
 }
 
 MODELS = ("hydroelastic", "point")
