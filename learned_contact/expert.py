@@ -3,8 +3,8 @@
 The main network is trained on depths uniform in 0-3 cm; where stacks rest at the 1e9 Pa
 modulus (overlaps of micrometres, tilts of hundredths of a degree) it moves the point
 centimetres from Drake's answer (issue 20). The resting expert is a network of the same
-shape and features, trained only on that regime (sampling's "resting" and "resting_wide"
-distributions) with its own input standardisation, so that micrometre depths are no
+shape and features, trained only on that regime (sampling's "resting", "resting_wide" and
+"resting_level" distributions) with its own input standardisation, so that micrometre depths are no
 longer lost in features scaled for centimetres. A gate hands it the poses of its domain:
 
     y = (1 - g) * main(x) + g * expert(x),   g = g_depth * g_tilt * g_yaw * g_x * g_y
@@ -54,10 +54,10 @@ R_SLAB = 0.01
 
 
 def default_domain() -> np.ndarray:
-    """(8,) the gate's bounds (DOMAIN_FIELDS) from sampling's resting ranges: inner =
-    "resting" (roll and pitch each within t make a tilt up to sqrt(2) t; a 1 % margin
-    covers the labeller's 1 um bisection), outer = "resting_wide" (its roll and pitch
-    square holds the disc of radius t)."""
+    """(9,) the gate's bounds (DOMAIN_FIELDS) from sampling's resting ranges: inner =
+    "resting" (roll and pitch each within t make a tilt up to sqrt(2) t; 1 % margins on
+    tilt and yaw, 10 % on depth for the labeller's 1 um bisection), outer = "resting_wide"
+    (its roll and pitch square holds the disc of radius t); then R_SLAB."""
     (_, d_in), tilt_in, yaw_in, off_in = RESTING_RANGES["resting"]
     (_, d_out), tilt_out, yaw_out, off_out = RESTING_RANGES["resting_wide"]
     s = lambda deg: float(np.sin(np.radians(deg)))  # noqa: E731

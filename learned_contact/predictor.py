@@ -43,7 +43,7 @@ class ContactPredictor(MLPPredictor):
     module docstring); the interface is learned_contact.interface.Predictor.
 
     expert: the resting expert (same input and output widths as mlp) or None;
-    expert_domain (8,): its gate's bounds (learned_contact.expert.DOMAIN_FIELDS),
+    expert_domain (9,): its gate's bounds (learned_contact.expert.DOMAIN_FIELDS),
     given exactly when expert is."""
 
     kind = "improved"

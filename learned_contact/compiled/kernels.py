@@ -231,7 +231,7 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
     the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
     sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
-    the resting expert (eparams, edims, eact: pack_mlp of it; domain (8,): its gate,
+    the resting expert (eparams, edims, eact: pack_mlp of it; domain (9,): its gate,
     learned_contact.expert.weights), each network evaluated only where its weight is not 0.
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
