@@ -13,6 +13,7 @@ A scene file is YAML in Drake's conventions (pydrake.common.yaml.yaml_load_typed
       X_WC: {translation: [0, 0, 1.2955]}  # pose of C in world; rotation: !Rpy {deg: [..]}
       V_WC: [0, 0, 0, 0, 0, 0]         # [wx wy wz vx vy vz] in W [rad/s, m/s]
       fixed: false                     # true = welded to the world
+    yards: []                          # yard blocks: rows x bays x tiers (testbed/bodies/yards.py)
     effects:                           # only these are built (testbed/effects/)
       contact: {model: hydroelastic, approximation: sap}
       friction: {}
@@ -47,6 +48,7 @@ from pydrake.systems.analysis import SimulatorConfig
 from testbed.bodies.boxes import BOX_TYPE, BoxSpec, GroundSpec, validate_box, validate_ground
 from testbed.bodies.containers import CONTAINER_TYPES, ContainerType
 from testbed.bodies.models import GROUND_NAME
+from testbed.bodies.yards import YardSpec, validate_yard, yard_slots
 from testbed.effects import registry
 from testbed.effects.contact import drake_approximation
 from testbed.errors import ScenarioError
@@ -149,6 +151,8 @@ class Scenario:
     plant: MultibodyPlantConfig = dataclasses.field(default_factory=_default_plant)
     simulator: SimulatorConfig = dataclasses.field(default_factory=SimulatorConfig)
     containers: typing.List[ContainerSpec] = dataclasses.field(default_factory=_default_containers)
+    # yard blocks (testbed/bodies/yards.py), expanded into `containers` by validate_scenario
+    yards: typing.List[YardSpec] = dataclasses.field(default_factory=list)
     effects: Effects = dataclasses.field(default_factory=_default_effects)
 
     def declared_effects(self) -> list[str]:
@@ -188,7 +192,7 @@ def _typed_from_raw(data: dict, source) -> Scenario:
     defaults = Scenario()
     if "effects" in data:  # declared effects replace the default set entirely
         defaults.effects = Effects()
-    if "containers" in data:
+    if "containers" in data or "yards" in data:  # a yard scene lists no container: not the default one
         defaults.containers = []
     try:
         scenario = yaml_load_typed(schema=Scenario, data=clean, defaults=defaults)
@@ -289,6 +293,7 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
     if not scenario.plant.time_step > 0:
         raise ScenarioError(source, "plant.time_step", "expected a positive discrete time step [s] (continuous plants "
                                                        f"are not supported), got {scenario.plant.time_step}")
+    expand_yards(scenario, source)
     if not scenario.containers:
         raise ScenarioError(source, "containers", "expected at least one container")
     seen: set[str] = set()
@@ -325,6 +330,28 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
     for effect in effects.values():
         effect.check(effects)
     return effects
+
+
+def expand_yards(scenario: Scenario, source: object = "<scenario>") -> None:
+    """Validates `scenario.yards` and appends their containers to `scenario.containers`
+    (after the listed ones, block by block), then empties `yards`: everything downstream,
+    and a dumped scene, sees plain containers. Idempotent."""
+    listed = {c.name for c in scenario.containers}
+    for i, yard in enumerate(scenario.yards):
+        validate_yard(yard, f"yards[{i}]", source)
+        for slot in yard_slots(yard):
+            if slot.name in listed or slot.name == GROUND_NAME:
+                raise ScenarioError(source, f"yards[{i}].name", f"prefix {yard.name!r} makes the name {slot.name!r}, "
+                                                                "which another container or yard already has; names must be unique")
+            listed.add(slot.name)
+            if max(abs(slot.p_WC[0]), abs(slot.p_WC[1])) > BOUNDS["position"]:
+                raise ScenarioError(source, f"yards[{i}].origin", f"the block reaches {slot.p_WC[:2]} m, outside the supported "
+                                                                  f"range |x|, |y| <= {BOUNDS['position']:g} m")
+            X_WC = Transform(translation=list(slot.p_WC))
+            if slot.yaw_deg:
+                X_WC.set_rotation_rpy_deg([0.0, 0.0, slot.yaw_deg])
+            scenario.containers.append(ContainerSpec(name=slot.name, type=slot.type, mass=slot.mass, X_WC=X_WC))
+    scenario.yards = []
 
 
 # Physically meaningful ranges. Values outside them are typos or unit mistakes, and they
