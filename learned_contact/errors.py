@@ -38,3 +38,8 @@ def weights_error(path, field: str, problem: str) -> WeightsError:
 def onnx_file_error(path, field: str, problem: str) -> WeightsError:
     """The same for an ONNX model file."""
     return WeightsError(f"ONNX model {path}: {field + ' ' if field else ''}{problem}")
+
+
+class PredictorTimeoutError(PredictorOutputError):
+    """A model's call that ran past learned_contact.limits' call_timeout_s and was stopped
+    (the message names the model and the bound's flag)."""

@@ -27,7 +27,7 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from learned_contact.errors import PredictorOutputError
+from learned_contact.errors import PredictorOutputError, WeightsError
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, check_numpy, check_outside, domain_error
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.boxes import sat_normal
@@ -36,6 +36,18 @@ from testbed.geometry.boxes import sat_normal
 # float32 network normalising its own output is unit to ~1e-7; 1e-3 admits a model that
 # does not normalise but was trained towards unit vectors, and refuses one that is wrong.
 NORMAL_LENGTH_TOLERANCE = 1e-3
+# The load-time probe's bounds. Answers to the same pose asked in one batch, alone and again
+# must agree within this [m] (points) and [-] (normal components): a float32 network over
+# 12 m boxes rounds at ~1e-6 m, and batched and one-by-one kernels may round differently;
+# 1e-4 m is 100x that and refuses a model whose answer depends on the rest of its batch or
+# on chance (a batch mean, +-5 cm noise).
+CONSISTENCY_TOLERANCE = 1e-4
+# An in-domain answer's point must lie within both boxes grown by this [m]: the predicted
+# point is where two boxes touch, so one further than half a metre outside either box is
+# not a contact point of these boxes (the paper's MLP, the worst shipped model, stays within).
+REACH_MARGIN = 0.5
+MAX_SUPPORTED_SIZES = 64  # the probe asks every pair of sizes: 64 sizes are 4,096 poses
+SINGLE_POSES = 6  # poses of the probe also asked one at a time
 
 # (p (n, 3), R (n, 3, 3), size_A (n, 3), size_B (n, 3)) -> (point (n, 3), normal (n, 3), depth (n,) or None)
 AnswerFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple]
@@ -92,7 +104,8 @@ class ExternalPredictor:
 
     def __init__(self, *, kind: str, name: str, answer: AnswerFn, supported_sizes, source: str,
                  depth_fn: Optional[AnswerFn] = None):
-        self.kind, self.name, self.source = kind, name, source
+        self.kind, self.source = kind, source
+        self.name = "".join(ch if ch.isprintable() else "_" for ch in str(name))[:80]  # shown in tables and lines
         self._answer, self._depth_fn = answer, depth_fn
         self.supported_sizes = np.ascontiguousarray(supported_sizes, dtype=float).reshape(-1, 3)
         self.meta = {"source": source, "name": name}
@@ -146,6 +159,44 @@ class ExternalPredictor:
         return bool(ok) if ok.ndim == 0 else ok
 
 
+def consistency_probe(predictor: ExternalPredictor) -> None:
+    """The load-time probe every untrusted model must pass (PredictorOutputError or
+    WeightsError naming the model, the check and by how much otherwise): the probe batch
+    (probe_poses) answered with finite unit-normal outputs of the right shapes; the same
+    batch again, reversed and SINGLE_POSES of its poses one at a time answered the same
+    within CONSISTENCY_TOLERANCE; every in-domain point within REACH_MARGIN of both boxes."""
+    sizes = np.asarray(predictor.supported_sizes)
+    if len(sizes) > MAX_SUPPORTED_SIZES:
+        raise WeightsError(f"{predictor.source}: declares {len(sizes)} supported sizes; expected at most "
+                           f"{MAX_SUPPORTED_SIZES} (the probe asks every pair of them)")
+    p, R, sA, sB = probe_poses(sizes)
+    point, normal = predictor.predict(p, R, size_A=sA, size_B=sB)
+    asked = {"asked again": (p, R, sA, sB, slice(None))}
+    back = slice(None, None, -1)
+    asked["asked in reverse order"] = (p[back], R[back], sA[back], sB[back], back)
+    for i in np.linspace(0, len(p) - 1, min(SINGLE_POSES, len(p))).astype(int):
+        one = slice(int(i), int(i) + 1)
+        asked[f"asked alone (pose {int(i)})"] = (p[one], R[one], sA[one], sB[one], one)
+    for how, (pp, RR, a, b, rows) in asked.items():
+        q, n = predictor.predict(pp, RR, size_A=a, size_B=b)
+        off = max(float(np.max(np.abs(np.asarray(q) - point[rows]))), float(np.max(np.abs(np.asarray(n) - normal[rows]))))
+        if not off <= CONSISTENCY_TOLERANCE:
+            raise WeightsError(f"{predictor.source}: refused by the load-time consistency probe: the answer to the same "
+                               f"poses {how} differs from the batch's by {off:.3g}; expected the same answer within "
+                               f"{CONSISTENCY_TOLERANCE:g} (a model's answer may depend only on its pose)")
+    depth = np.asarray(predictor.depth(p, R, size_A=sA, size_B=sB))
+    inside = (depth >= DOMAIN_DEPTH[0]) & (depth <= DOMAIN_DEPTH[1])
+    outside_A = np.max(np.abs(point) - 0.5 * sA, axis=1)  # (n,) [m] > 0: beyond A's box by that much
+    in_B = np.einsum("nji,nj->ni", R, point - p)  # (n, 3) the point in B's frame [m]
+    outside_B = np.max(np.abs(in_B) - 0.5 * sB, axis=1)
+    far = np.maximum(outside_A, outside_B) * inside
+    if np.any(far > REACH_MARGIN):
+        worst = int(np.argmax(far))
+        raise WeightsError(f"{predictor.source}: refused by the load-time consistency probe: {int((far > REACH_MARGIN).sum())} "
+                           f"of {len(p)} answers put the contact point {far[worst]:.4g} m outside a box (pose {worst}, "
+                           f"depth {depth[worst] * 1000:.3g} mm); expected points within {REACH_MARGIN:g} m of both boxes")
+
+
 def probe_poses(sizes: np.ndarray):
     """A small batch every model must answer when it is loaded: B resting 5 mm deep on A
     for every pair of supported sizes, one of them tilted and offset. Returns (p_AB (n, 3),
@@ -161,4 +212,14 @@ def probe_poses(sizes: np.ndarray):
     c, s = np.cos(0.01), np.sin(0.01)
     R[0] = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
     p[0, :2] = (0.3, -0.2)
+    # the first pair again: yawed 2 deg and offset, and tilted about y by 0.1 deg (deeper by
+    # the tilt's drop at the edge, <= 1.1 cm for 12.2 m boxes: within the trained depths)
+    c, s = np.cos(np.radians(2.0)), np.sin(np.radians(2.0))
+    yaw = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    c, s = np.cos(np.radians(0.1)), np.sin(np.radians(0.1))
+    tilt = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    p = np.vstack([p, [[-0.4, 0.1, p[0, 2]], [0.2, 0.0, p[0, 2]]]])
+    R = np.concatenate([R, yaw[None], tilt[None]])
+    size_A = np.vstack([size_A, size_A[:1], size_A[:1]])
+    size_B = np.vstack([size_B, size_B[:1], size_B[:1]])
     return p, R, size_A, size_B

@@ -21,12 +21,14 @@ with the single-threaded numba kernels on equal terms.
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
-from learned_contact.errors import PredictorOutputError, WeightsError, onnx_file_error
-from learned_contact.external import ExternalPredictor, default_sizes, probe_poses
+from learned_contact import limits
+from learned_contact.errors import PredictorOutputError, PredictorTimeoutError, WeightsError, onnx_file_error
+from learned_contact.external import ExternalPredictor, consistency_probe, default_sizes
 from testbed.safe_files import check_regular_file
 
 INPUTS = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}  # name -> shape after the batch axis
@@ -36,7 +38,71 @@ TYPES = {"tensor(float)": np.float32, "tensor(double)": np.float64}
 # A contact model of the paper's size is a few kB, the shipped improved one ~60 kB; 256 MB
 # admits any network a simulator would run per pair per step and refuses a runaway file.
 MAX_MODEL_BYTES = 256 * 2**20
-INSTALL = "pip install 'container-contact-testbed[onnx]' (onnxruntime==1.30.0)"
+INSTALL = "pip install 'container-contact-testbed[onnx]' (onnx==1.23.1, onnxruntime==1.30.0)"
+SUBGRAPH_ATTRIBUTES = ("g", "graphs")  # AttributeProto fields that hold subgraphs (Loop, If, Scan bodies)
+
+
+def _graphs(graph):
+    """The graph and every subgraph in it, depth first."""
+    stack = [graph]
+    while stack:
+        g = stack.pop()
+        yield g
+        for node in g.node:
+            for attribute in node.attribute:
+                if attribute.HasField("g"):
+                    stack.append(attribute.g)
+                stack.extend(attribute.graphs)
+
+
+def _tensors(graph):
+    """Every TensorProto a graph holds as data: initializers and Constant-like attributes."""
+    for g in _graphs(graph):
+        yield from g.initializer
+        for sparse in g.sparse_initializer:
+            yield sparse.values
+            yield sparse.indices
+        for node in g.node:
+            for attribute in node.attribute:
+                if attribute.HasField("t"):
+                    yield attribute.t
+                yield from attribute.tensors
+
+
+def check_graph(path: Path, file_bytes: int) -> None:
+    """Refuses, before onnxruntime reads the file, a graph of more than max_nodes nodes
+    (subgraphs counted) and a model whose file plus external data files exceed memory_bytes
+    (external data named outside the model's folder is left to onnxruntime, which refuses it)."""
+    try:
+        import onnx
+    except ImportError:
+        raise WeightsError(f"ONNX model {path}: the onnx package is not installed; {INSTALL}") from None
+    try:
+        model = onnx.load_model(str(path), load_external_data=False)
+    except Exception as exc:  # noqa: BLE001 - every unparsable file is the same error
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise WeightsError(f"ONNX model {path}: cannot parse it ({first[:200]}); expected an ONNX model file") from None
+    bound = limits.limits()
+    nodes = sum(len(g.node) for g in _graphs(model.graph))
+    if nodes > bound.max_nodes:
+        raise WeightsError(f"ONNX model {path}: has {nodes:,} nodes (subgraphs counted); expected at most "
+                           f"{limits.bound_text('max_nodes')}")
+    total, folder = file_bytes, path.resolve().parent
+    for tensor in _tensors(model.graph):
+        if tensor.data_location != onnx.TensorProto.EXTERNAL:
+            continue
+        entries = {e.key: e.value for e in tensor.external_data}
+        target = (folder / entries.get("location", "")).resolve()
+        try:
+            length = int(entries["length"]) if "length" in entries else \
+                max(0, os.stat(target).st_size - int(entries.get("offset", 0) or 0))
+        except (OSError, ValueError):
+            continue  # missing or unreadable: onnxruntime names it
+        total += length
+    if total > bound.memory_bytes:
+        raise WeightsError(f"ONNX model {path}: its file and external data hold {total / 2**20:,.0f} MiB; expected "
+                           f"at most {limits.bound_text('memory_bytes')}")
+
 
 
 def _fail(path, what: str, problem: str, expected: str) -> WeightsError:
@@ -51,7 +117,8 @@ def _session(path: Path):
     options = ort.SessionOptions()
     options.intra_op_num_threads = 1
     options.inter_op_num_threads = 1
-    options.log_severity_level = 3  # errors only: the loader reports problems itself
+    options.log_severity_level = 4  # fatal only: the loader and the calls report problems themselves
+    ort.set_default_logger_severity(4)  # the same for onnxruntime's own logger (its coloured lines)
     try:
         return ort.InferenceSession(str(path), sess_options=options, providers=["CPUExecutionProvider"])
     except Exception as exc:  # noqa: BLE001 - every unreadable model is the same error
@@ -93,11 +160,19 @@ def _metadata(path, session) -> tuple[np.ndarray, str]:
     return sizes, name
 
 
+def check_file(path) -> None:
+    """The checks that read no more than the file's graph: a regular file under
+    MAX_MODEL_BYTES, nodes and external data within learned_contact.limits' bounds."""
+    path = Path(path)
+    size = check_regular_file(path, MAX_MODEL_BYTES, "ONNX model (.onnx)", onnx_file_error)
+    check_graph(path, size)
+
+
 def load_onnx(path) -> ExternalPredictor:
     """The ONNX model at `path` behind the Predictor interface (see the module docstring);
     WeightsError naming the file and what is wrong otherwise."""
     path = Path(path)
-    check_regular_file(path, MAX_MODEL_BYTES, "ONNX model (.onnx)", onnx_file_error)
+    check_file(path)
     session = _session(path)
     inputs = {a.name: a for a in session.get_inputs()}
     outputs = {a.name: a for a in session.get_outputs()}
@@ -116,11 +191,18 @@ def load_onnx(path) -> ExternalPredictor:
     wanted = list(OUTPUTS) + [n for n in OPTIONAL_OUTPUTS if n in outputs]
     sizes, name = _metadata(path, session)
 
+    import onnxruntime as ort
+
     def answer(p, R, sA, sB):
         feed = {n: np.ascontiguousarray(v, dtype=dtypes[n]) for n, v in
                 (("p_AB", p), ("R_AB", R), ("size_A", sA), ("size_B", sB))}
+        run_options = ort.RunOptions()
+        run_options.log_severity_level = 4
         try:
-            result = session.run(wanted, feed)
+            with limits.onnx_deadline(run_options, f"ONNX model {path}"):
+                result = session.run(wanted, feed, run_options)
+        except PredictorTimeoutError:
+            raise
         except Exception as exc:  # noqa: BLE001 - a model that fails at run time
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise PredictorOutputError(f"ONNX model {path}: failed on a batch of {len(p)} poses "
@@ -135,14 +217,14 @@ def load_onnx(path) -> ExternalPredictor:
 
 
 def probe(predictor: ExternalPredictor) -> None:
-    """Asks the probe batch; turns any failure into one WeightsError line naming the source."""
-    p, R, sA, sB = probe_poses(predictor.supported_sizes)
+    """The load-time probe (external.consistency_probe); turns any failure into one
+    WeightsError line naming the source."""
     try:
-        predictor.predict(p, R, size_A=sA, size_B=sB)
+        consistency_probe(predictor)
     except PredictorOutputError as exc:
-        raise WeightsError(f"{exc} (on the load-time probe batch)") from None
+        raise WeightsError(f"{exc} (on the load-time probe)") from None
     except WeightsError:
         raise
-    except Exception as exc:  # noqa: BLE001 - a user's model may raise anything
-        raise WeightsError(f"{predictor.source}: fails on the load-time probe batch of {len(p)} resting poses "
-                           f"({type(exc).__name__}: {str(exc)[:200]}); expected point_A and normal_A (n, 3)") from None
+    except BaseException as exc:  # noqa: BLE001 - a user's model may raise anything, SystemExit included
+        raise WeightsError(f"{predictor.source}: fails on the load-time probe ({type(exc).__name__}: "
+                           f"{str(exc)[:200]}); expected point_A and normal_A (n, 3)") from None

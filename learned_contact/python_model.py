@@ -24,7 +24,8 @@ import sys
 
 import numpy as np
 
-from learned_contact.errors import WeightsError
+from learned_contact import limits
+from learned_contact.errors import PredictorOutputError, PredictorTimeoutError, WeightsError
 from learned_contact.external import ExternalPredictor, default_sizes
 from learned_contact.onnx_model import probe
 
@@ -47,7 +48,7 @@ def _import(spec: str):
     except ImportError as exc:
         raise WeightsError(f"Python model {spec}: cannot import module {module_name!r} ({exc}); expected a module "
                            "importable from the current directory or PYTHONPATH") from None
-    except Exception as exc:  # noqa: BLE001 - the user's module failed while importing
+    except BaseException as exc:  # noqa: BLE001 - the user's module failed while importing (SystemExit included)
         raise WeightsError(f"Python model {spec}: importing {module_name!r} raised {type(exc).__name__}: "
                            f"{str(exc)[:200]}") from None
     obj = module
@@ -59,16 +60,42 @@ def _import(spec: str):
     return obj
 
 
+def _call(spec: str, method, p, R, sA, sB):
+    """method(p, R, size_A=sA, size_B=sB) under the call bound; whatever it raises (SystemExit
+    and KeyboardInterrupt included) becomes PredictorOutputError naming the model."""
+    try:
+        with limits.python_deadline(f"Python model {spec}"):
+            return method(p, R, size_A=sA, size_B=sB)
+    except PredictorOutputError:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the user's code may raise anything
+        raise PredictorOutputError(f"Python model {spec}: {getattr(method, '__name__', 'predict')} raised "
+                                   f"{type(exc).__name__} on a batch of {len(p)} poses: {str(exc)[:200]}") from None
+
+
 def load_python(spec: str) -> ExternalPredictor:
-    """The model named by `module:attribute` behind the Predictor interface."""
+    """The model named by `module:attribute` behind the Predictor interface; anything the
+    user's code raises while it is loaded and probed is one WeightsError line."""
+    try:
+        return _load_python(spec)
+    except WeightsError:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a property or method of the user's object
+        raise WeightsError(f"Python model {spec}: loading it raised {type(exc).__name__}: {str(exc)[:200]}") from None
+
+
+def _load_python(spec: str) -> ExternalPredictor:
     target = _import(spec)
     if not callable(getattr(target, "predict", None)) or isinstance(target, type):
         if not callable(target):
             raise WeightsError(f"Python model {spec}: {type(target).__name__} is neither callable nor has predict(); "
                                "expected a factory or an object with predict(p_AB, R_AB, *, size_A, size_B)")
         try:
-            target = target()
-        except Exception as exc:  # noqa: BLE001 - the user's factory failed
+            with limits.python_deadline(f"Python model {spec}", "load_timeout_s", "its factory"):
+                target = target()
+        except PredictorTimeoutError as exc:
+            raise WeightsError(str(exc)) from None
+        except BaseException as exc:  # noqa: BLE001 - the user's factory failed (SystemExit, KeyboardInterrupt included)
             raise WeightsError(f"Python model {spec}: the factory raised {type(exc).__name__}: "
                                f"{str(exc)[:200]}") from None
     if not callable(getattr(target, "predict", None)):
@@ -84,7 +111,7 @@ def load_python(spec: str) -> ExternalPredictor:
                                "expected (k, 3) finite full extents [m]")
 
     def answer(p, R, sA, sB):
-        out = target.predict(p, R, size_A=sA, size_B=sB)
+        out = _call(spec, target.predict, p, R, sA, sB)
         if not isinstance(out, (tuple, list)) or len(out) not in (2, 3):
             raise WeightsError(f"Python model {spec}: predict returned {type(out).__name__}; expected "
                                "(point_A, normal_A) or (point_A, normal_A, depth)")
@@ -92,7 +119,7 @@ def load_python(spec: str) -> ExternalPredictor:
         return arrays[0], arrays[1], (arrays[2] if len(arrays) == 3 else None)
 
     depth = getattr(target, "depth", None)
-    depth_fn = (lambda p, R, sA, sB: depth(p, R, size_A=sA, size_B=sB)) if callable(depth) else None
+    depth_fn = (lambda p, R, sA, sB: _call(spec, depth, p, R, sA, sB)) if callable(depth) else None
     name = str(getattr(target, "name", None) or spec.rpartition(":")[2])
     predictor = ExternalPredictor(kind="python", name=name, answer=answer, supported_sizes=sizes, source=spec,
                                   depth_fn=depth_fn)

@@ -15,9 +15,12 @@ existing file; else a path, by suffix (.onnx, else a weights .npz).
 from __future__ import annotations
 
 import dataclasses
+import os
+import re
 from pathlib import Path
 from typing import Callable
 
+from learned_contact import limits
 from learned_contact.errors import WeightsError
 from learned_contact.loading import SHIPPED, load_weights
 from learned_contact.onnx_model import load_onnx
@@ -68,21 +71,54 @@ def label(spec) -> str:
     key = source_of(spec).key
     if key == "shipped":
         return spec
+    name = spec.rpartition(":")[2].replace(".", "_") if key == "python" else Path(spec).stem
+    return re.sub(r"[^A-Za-z0-9_.+-]", "_", name) or "model"
+
+
+UNTRUSTED = ("onnx", "python")  # sources whose code is not the testbed's: vetted in a child (limits.py)
+_loaded: dict = {}  # (spec, compiled, file identity, limits) -> predictor: each model loaded once per process
+
+
+def _identity(spec: str, key: str):
+    """What makes a loaded model current: the file's (device, inode, size, mtime) for files."""
     if key == "python":
-        return spec.rpartition(":")[2].replace(".", "_")
-    return Path(spec).stem
+        return None
+    try:
+        st = os.stat(SHIPPED[spec] if key == "shipped" else spec)
+    except OSError:
+        return "missing"
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+
+
+def load_unvetted(spec: str, compiled: bool = True):
+    """The predictor `spec` names, loaded in this process without the child-process vetting
+    (learned_contact.vet's own call; everything else uses load_predictor)."""
+    return source_of(spec).load(spec, compiled)
 
 
 def load_predictor(spec=None, *, compiled: bool = True):
     """The predictor `spec` names (None: "improved"); see the module docstring.
 
     compiled: for the shipped kinds, run the numba kernels (True) or the numpy reference
-    (False); other sources run as they are. Raises WeightsError naming the file (or
-    module:attribute), the field and what was expected.
+    (False); other sources run as they are. An ONNX or Python model is first loaded and
+    probed in a child process under learned_contact.limits' bounds (time, memory, nodes), and
+    runs here under its per-call bound. A model is loaded once per process: the same spec (and
+    the same file, unchanged) returns the same object. Raises WeightsError naming the file (or
+    module:attribute), the field or bound and what was expected.
     """
     if spec is not None and not isinstance(spec, (str, Path)):
         raise WeightsError(f"predictor {spec!r}: expected a string, {HELP}")
     if spec is not None and str(spec).strip() == "":
         raise WeightsError(f"predictor '': expected {HELP}")
     source = source_of(spec)
-    return source.load(DEFAULT if spec is None else str(spec), compiled)
+    spec = DEFAULT if spec is None else str(spec)
+    key = (spec, compiled, _identity(spec, source.key), limits.limits())
+    if key not in _loaded:
+        if source.key in UNTRUSTED:
+            if source.key == "onnx":  # refusals that need no child (file kind, size, nodes, external data)
+                from learned_contact.onnx_model import check_file
+
+                check_file(spec)
+            limits.vet_in_child(spec)
+        _loaded[key] = source.load(spec, compiled)
+    return _loaded[key]

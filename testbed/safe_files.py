@@ -215,6 +215,9 @@ def load_npz(path: str | Path, limit: int, unpacked_limit: int, what: str, error
     try:
         with zipfile.ZipFile(path) as z:
             unpacked = sum(info.file_size for info in z.infolist())
+            if unpacked <= unpacked_limit:
+                for info in z.infolist():
+                    _check_npy_header(z, info, path, what, error)
     except (OSError, zipfile.BadZipFile, EOFError) as e:
         raise error(path, "", f"not a readable .npz file ({e}); expected a {what}") from None
     if unpacked > unpacked_limit:
@@ -222,5 +225,25 @@ def load_npz(path: str | Path, limit: int, unpacked_limit: int, what: str, error
     try:
         with np.load(path, allow_pickle=False) as f:
             return {k: f[k] for k in f.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise error(path, "", f"not a readable .npz file ({e}); expected a {what}") from None
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError, MemoryError) as e:
+        raise error(path, "", f"not a readable .npz file ({type(e).__name__}: {str(e)[:200]}); expected a {what}") from None
+
+
+def _check_npy_header(z: zipfile.ZipFile, info: zipfile.ZipInfo, path, what: str, error) -> None:
+    """Refuses a member whose .npy header claims more data than the member holds (numpy would
+    allocate what the header claims before reading: a 10^7 x 10^7 header is 800 TB)."""
+    if not info.filename.endswith(".npy"):
+        return
+    field = info.filename[:-4]
+    try:
+        with z.open(info) as f:
+            version = np.lib.format.read_magic(f)
+            reader = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+            shape, _, dtype = reader(f, max_header_size=10_000)
+            start = f.tell()
+    except (ValueError, TypeError) as e:
+        raise error(path, field, f"has no readable array header ({str(e)[:200]}); expected a {what}") from None
+    claimed = int(np.prod(shape, dtype=object)) * max(dtype.itemsize, 1)
+    if claimed > info.file_size - start:
+        raise error(path, field, f"claims a {shape} array of {_size_text(claimed)} but holds {_size_text(info.file_size - start)}; "
+                                 f"expected a {what}")

@@ -238,6 +238,7 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
                                           "(the 'defaults' scene is `testbed run defaults`)")
     source = str(path) if path is not None else "<string>"
     scenario = _typed_from_raw(parse_yaml(text, source), source)
+    _file_predictors(scenario, Path(path).resolve().parent if path is not None else Path.cwd(), source)
     if overrides:
         data = parse_yaml(yaml_dump_typed(scenario), source)
         for key in _DERIVED_PLANT_FIELDS:
@@ -255,6 +256,28 @@ def load_scenario(path: str | Path | None = None, *, text: str | None = None, ov
     effects = validate_scenario(scenario, source)
     setattr(scenario, _CHECKED, (dump_scenario(scenario), effects))
     return scenario
+
+
+def _file_predictors(scenario: Scenario, folder: Path, source) -> None:
+    """A scene file is data, never code: an effect's `predictor` written in it may name a shipped
+    predictor or a model file (.onnx, .npz; a relative path is taken from the scene's own folder
+    and made absolute here), not `module:attribute`, which only the command line (--predictor,
+    --set) and the Python API accept. ScenarioError naming the field otherwise."""
+    from learned_contact.sources import SHIPPED_NAMES, source_of
+
+    for name in scenario.declared_effects():
+        config = getattr(scenario.effects, name)
+        value = getattr(config, "predictor", None)
+        if not isinstance(value, str) or value in SHIPPED_NAMES:
+            continue
+        field = f"effects.{name}.predictor"
+        path = Path(value) if Path(value).is_absolute() else folder / value
+        if not value.lower().endswith((".onnx", ".npz")):
+            kind = "a Python model (module:attribute)" if source_of(value).key == "python" else "neither a shipped predictor nor a model file"
+            raise ScenarioError(source, field, f"{value!r} is {kind}; a scene file may name only {', '.join(SHIPPED_NAMES)} or "
+                                               "a model file (.onnx, .npz, relative to the scene's folder): Python models run "
+                                               "code and are accepted only from the command line (--predictor) or the Python API")
+        config.predictor = str(path.resolve())
 
 
 def source_label(path, overrides=()) -> str:

@@ -13,10 +13,14 @@ least disturbed by other work on a shared machine).
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import time
 
 import numpy as np
 
+from learned_contact import limits
+from learned_contact.errors import WeightsError
 from learned_contact.labels import _pair_scene, _query
 from learned_contact.sources import load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -49,11 +53,12 @@ def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: in
 
 
 FIRST_CALL = (
-    "import os, sys, time\n"
+    "import json, os, sys, time\n"
     "sys.path.append(os.getcwd())\n"
     "t0 = time.perf_counter()\n"
     "import numpy as np\n"
-    "from learned_contact import load_predictor\n"
+    "from learned_contact import limits, load_predictor\n"
+    "limits.set_limits(**json.loads(sys.argv[2]))\n"
     "pred = load_predictor(sys.argv[1])\n"
     "size = pred.supported_sizes[0]\n"
     "pred.predict(np.array([0.0, 0.0, size[2] - 0.005]), np.eye(3), size_A=size, size_B=size)\n"
@@ -69,12 +74,24 @@ def first_call_cost(spec: str) -> float:
     import sys
 
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
-    proc = subprocess.run([sys.executable, "-c", FIRST_CALL, spec], capture_output=True, text=True, timeout=600,
-                          env=env)
+    bound = limits.limits()
+    # the model's own load bound twice (vetting child, then this process), one call, and a
+    # minute for the interpreter and numba's cache
+    timeout = 2 * bound.load_timeout_s + bound.call_timeout_s + 60.0
+    try:
+        proc = subprocess.run([sys.executable, "-c", FIRST_CALL, spec, json.dumps(dataclasses.asdict(bound))],
+                              capture_output=True, text=True, timeout=timeout, env=env, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        raise WeightsError(f"model {spec}: its first call in a fresh process took longer than {timeout:g} s "
+                           "(twice --model-load-timeout, --model-call-timeout and 60 s) and was stopped") from None
     if proc.returncode != 0:
         tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]
-        raise RuntimeError(f"first-call measurement of {spec} failed in a fresh process: {tail}")
-    return float(proc.stdout.strip().splitlines()[-1])
+        raise WeightsError(f"model {spec}: its first call in a fresh process failed: {tail[:300]}")
+    try:
+        return float(proc.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        raise WeightsError(f"model {spec}: its first call in a fresh process printed no time "
+                           f"(its output: {proc.stdout.strip()[-200:]!r})") from None
 
 
 def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:

@@ -104,7 +104,8 @@ def run(args) -> int:
                                 replay=not args.no_replay, source=source, judge=verdict)
     except ScenarioError as e:
         if args.predictor is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
-            raise TestbedError(f"--predictor {args.predictor}: {e.problem}") from None
+            named = args.predictor in e.problem  # the loaders name the file or module:attribute already
+            raise TestbedError(f"--predictor: {e.problem}" if named else f"--predictor {args.predictor}: {e.problem}") from None
         raise
     print(format_figures(figures, out))
     return figures["exit_status"]

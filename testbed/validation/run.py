@@ -94,6 +94,13 @@ def _cases_of(spec, path: Path) -> list[Case]:
             cases.append(Case(**c))
         except TypeError as e:
             raise InputFileError(path, f"cases[{i}]", f"expected a case with id, kind and params ({e})") from None
+        params = cases[-1].params if isinstance(cases[-1].params, dict) else {}
+        named = params.get("predictors") if isinstance(params.get("predictors"), list) else [params.get("predictor")]
+        for spec_ in named:
+            if isinstance(spec_, str) and sources.source_of(spec_).key == "python":
+                raise InputFileError(path, f"cases[{i}].params", f"names the Python model {spec_!r}; a file is data, never "
+                                                                 "code: a Python model is accepted only from --predictor "
+                                                                 "(run the suite again instead of --resume)")
     return cases
 
 

@@ -151,7 +151,7 @@ def test_python_object_predictor_gets_depth_and_sizes_filled_in():
 
 
 @pytest.mark.parametrize("spec, match", [
-    ("bench_models:NaNModel", "9 of 9 answers hold NaN"),
+    ("bench_models:NaNModel", "11 of 11 answers hold NaN"),
     ("bench_models:not_a_model", "without predict"),
     ("bench_models:Missing", "no attribute 'Missing'"),
     ("no_such_module_xyz:make", "cannot import module"),
