@@ -5,6 +5,12 @@ One system reads the bodies' poses and velocities, asks the predictor once per s
 nearby container pair (one batched call) and applies the wrenches as
 ExternallyAppliedSpatialForce (explicit: step n's force from step n's state).
 
+Nearby pairs, per step: a sort-and-sweep broad phase on the containers' world boxes
+(kernels.broad_phase, about N log N plus the boxes sharing the sweep axis's interval), then the
+narrow tests of kernels.near_pairs (bounding spheres, face axes) on its candidates only; the
+stick anchors are kept for the pairs in contact only (an abstract state keyed by pair), so the
+per-step work grows with the containers and the pairs touching, not with N(N-1)/2.
+
 Per pair (A = lower body index, B = higher; n from A into B): line of action = the predicted
 point and normal; normal force = a Winkler foundation kappa [Pa/m] over the face overlap
 (force_law.py; kappa fitted to Drake's static hydroelastic curve), Hunt-Crossley dissipation
@@ -75,8 +81,8 @@ def load_named_predictor(name: str):
 class LearnedDynamics(LeafSystem):
     """Contact wrenches between container pairs from a predictor (see the module docstring)."""
 
-    def __init__(self, assembly, config: LearnedDynamicsConfig, predictor, kappa: np.ndarray, mu: float, pairs,
-                 modulus: float):
+    def __init__(self, assembly, config: LearnedDynamicsConfig, predictor, kappa_by_type: np.ndarray, mu: float,
+                 type_index: np.ndarray, modulus: float):
         super().__init__()
         self.set_name("learned_dynamics")
         import testbed.effects.learned_dynamics.kernels as learned_force_kernels  # numba: only scenes that build the effect load it
@@ -99,18 +105,19 @@ class LearnedDynamics(LeafSystem):
         self._radius = np.linalg.norm(self._half, axis=1)
         self._mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])  # [kg]
         self._I_Bo = np.array([b.default_rotational_inertia().CopyToFullMatrix3() for b in bodies]).reshape(-1, 3, 3)
-        pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)  # (P, 2) container indices, A < B
-        self._ia, self._ib = pairs[:, 0].copy(), pairs[:, 1].copy()
-        self._kappa = np.asarray(kappa, dtype=float)  # (P,) [Pa/m]
+        self._type = np.asarray(type_index, dtype=np.int64)  # (m,) container -> row of kappa_by_type
+        self._kappa_tt = np.asarray(kappa_by_type, dtype=float)  # (T, T) [Pa/m] per size pair
+        self._n = len(specs)
         self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
         self.reset_costs()  # (again after the constructor's warm-up call below)
         truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
         self.records = ClosedLoopRecords(self._rows, truth)  # the closed_loop table (with contact_log)
         self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
-        # the stick's anchors: per pair, material points in A and B [m] (6) and stuck flag (1)
-        self._anchor_state = self.DeclareDiscreteState(7 * len(pairs))
-        self._next_anchors = np.zeros(7 * len(pairs))
+        # the stick's anchors of the pairs in contact: (keys (s,) int64 = ia * m + ib, ascending;
+        # rows (s, 7): material points in A and B [m] (6) and stuck flag (1)); absent = not stuck
+        self._anchor_state = self.DeclareAbstractState(AbstractValue.Make(_no_anchors()))
+        self._next_anchors = _no_anchors()
         # an unrestricted update, like the plant's step (sampled ports): both read the same
         # pre-step state, so the anchors come from the wrenches the plant just evaluated
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._h, 0.0, self._update_anchors)
@@ -167,13 +174,13 @@ class LearnedDynamics(LeafSystem):
     def _update_anchors(self, context, state) -> None:
         self._out.Eval(context)  # cached: its calc left the next anchors for this very state
         start = time.perf_counter()
-        state.get_mutable_discrete_state(self._anchor_state).SetFromVector(self._next_anchors)
+        state.get_mutable_abstract_state(self._anchor_state).set_value(self._next_anchors)
         self._cost[0] += time.perf_counter() - start
 
     def _calc(self, context, output) -> None:
         start = time.perf_counter()
         x = self._x.Eval(context)
-        anchors = context.get_discrete_state(self._anchor_state).get_value().reshape(-1, 7)
+        anchors = context.get_abstract_state(self._anchor_state).get_value()
         wrench = self.wrenches(*self._K.bodies_from_state(x, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free),
                                anchors=anchors)
         out = []
@@ -188,15 +195,18 @@ class LearnedDynamics(LeafSystem):
     def wrenches(self, p, R, w, v, anchors=None) -> np.ndarray:
         """(m, 6) [N m, N] torque about each body origin and force, in W, on each container,
         from body-origin positions p (m, 3) [m], rotations R_WB (m, 3, 3) and velocities
-        w, v (m, 3) [rad/s, m/s] in W and the stick anchors (P, 7) (see _anchor_state).
-        One predictor call for all candidate pairs. Leaves the next anchors in _next_anchors."""
-        anchors = np.zeros((len(self._ia), 7)) if anchors is None else anchors
-        keep, p_AB, R_AB = self._K.near_pairs(p, R, self._ia, self._ib, self._half, self._radius, self._free, NEAR)
+        w, v (m, 3) [rad/s, m/s] in W and the stick anchors (keys, rows) of the pairs in contact
+        (see _anchor_state; None = none). One predictor call for all candidate pairs (broad
+        phase, then near_pairs). Leaves the next anchors in _next_anchors."""
+        cand_a, cand_b = self._K.broad_phase(p, R, self._half, self._free, NEAR)
+        keep, p_AB, R_AB = self._K.near_pairs(p, R, cand_a, cand_b, self._half, self._radius, self._free, NEAR)
         self._last = {"pairs": np.zeros((0, 2), np.int64)}
-        self._next_anchors = np.zeros(anchors.size)
+        self._next_anchors = _no_anchors()
         if not len(keep):
             return np.zeros((len(p), 6))
-        ia, ib = self._ia[keep], self._ib[keep]
+        ia, ib = cand_a[keep], cand_b[keep]
+        keys, rows = _no_anchors() if anchors is None else anchors
+        kappa, held = self._K.gather_pairs(ia, ib, self._n, keys, rows, self._type, self._kappa_tt)
         size_A, size_B = self._size[ia], self._size[ib]
         start = time.perf_counter()
         point_A, normal_A = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
@@ -205,12 +215,11 @@ class LearnedDynamics(LeafSystem):
         self._cost[5] += len(keep)
         c = self._cfg
         out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next = self._K.pair_wrenches(
-            p, R, w, v, self._mass, self._I_Bo, ia, ib, self._kappa[keep], np.ascontiguousarray(point_A),
+            p, R, w, v, self._mass, self._I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
             np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self._mu,
             c.slip_speed, c.stiction, self._h, c.torsional_friction, c.grid,
-            np.ascontiguousarray(anchors[keep, :6]), np.ascontiguousarray(anchors[keep, 6]), c.stick_hw, c.stick_damping)
-        nxt = self._next_anchors.reshape(-1, 7)
-        nxt[keep, :6], nxt[keep, 6] = anchors_next, stuck_next
+            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping)
+        self._next_anchors = self._K.pack_anchors(ia, ib, self._n, anchors_next, stuck_next)  # keys ascend as broad_phase's
         self._last = (ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R)  # last() builds the dict on demand
         return out
 
@@ -229,6 +238,14 @@ class LearnedDynamics(LeafSystem):
         elif raw is not None:  # (ia, ib, fn, p_W, n_W, f_W, area, ...) of the candidate pairs
             self.records.add(step, context.get_time(), raw[:7])
         self._cost[2] += time.perf_counter() - start
+
+
+def _no_anchors() -> tuple:
+    """The anchors of no pair: (keys (0,) int64, rows (0, 7))."""
+    return _NO_KEYS, _NO_ROWS
+
+
+_NO_KEYS, _NO_ROWS = np.zeros(0, np.int64), np.zeros((0, 7))
 
 
 @register
@@ -288,8 +305,11 @@ class LearnedDynamicsEffect(Effect):
         self.pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))
                       if not (specs[i].fixed and specs[j].fixed)]
         self.modulus = law_modulus(self.scenario)
-        self.kappa = np.array([c.pressure_stiffness or pressure_stiffness(specs[i].type, specs[j].type, self.modulus)
-                               for i, j in self.pairs])
+        types = sorted({s.type for s in specs})
+        self.type_index = np.array([types.index(s.type) for s in specs], dtype=np.int64)  # container -> kappa_by_type row
+        self.kappa_by_type = np.array([[c.pressure_stiffness or pressure_stiffness(a, b, self.modulus) for b in types]
+                                       for a in types]).reshape(len(types), len(types))  # [Pa/m]
+        self.kappa = np.array([self.kappa_by_type[self.type_index[i], self.type_index[j]] for i, j in self.pairs])
         self.stability = stability_numbers(self.scenario, self.pairs, self.kappa, c.dissipation)
         for row in self.stability:
             worst = max(("normal", "tilt"), key=lambda mode: row[mode])
@@ -313,7 +333,7 @@ class LearnedDynamicsEffect(Effect):
         friction = self.scenario.effects.friction
         if friction is not None:
             mu = self.config.mu if self.config.mu is not None else (friction.mu if friction.mu is not None else MU_SDF)
-        self.system = LearnedDynamics(assembly, self.config, self.predictor, self.kappa, mu, self.pairs, self.modulus)
+        self.system = LearnedDynamics(assembly, self.config, self.predictor, self.kappa_by_type, mu, self.type_index, self.modulus)
         return [self.system]
 
     def collect(self, tables: dict) -> None:

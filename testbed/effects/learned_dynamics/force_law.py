@@ -68,11 +68,48 @@ def fit_pressure_stiffness(type_a: str, type_b: str, depths=(5e-5, 1e-4, 2e-4, 5
     return kappa, float(np.max(np.abs(np.asarray(force) / (kappa * x) - 1.0)))
 
 
+def carried_masses(specs) -> np.ndarray:
+    """(m,) [kg] the mass each container carries, itself included: its own mass (0 if fixed)
+    plus every free container stacked on it, i.e. in the column above it: those whose
+    footprint (the box's axis-aligned extent in world x and y) overlaps its footprint and
+    whose centre lies more than 0.1 m higher, transitively (a 40 ft box on two 20 ft ones
+    loads both). Containers side by side, however close, do not load each other."""
+    own, column = _columns(specs)
+    return np.array([own[i] + sum(own[j] for j in column[i]) for i in range(len(specs))])
+
+
+def _columns(specs) -> tuple[np.ndarray, list[set]]:
+    """(own masses (m,) [kg], 0 if fixed; per container the set of containers in its column
+    above, see carried_masses)."""
+    m = len(specs)
+    if not m:
+        return np.zeros(0), []
+    X = [c.pose() for c in specs]
+    p = np.array([x.translation() for x in X]).reshape(-1, 3)
+    half = np.array([np.abs(x.rotation().matrix()) @ (0.5 * np.asarray(CONTAINER_TYPES[c.type].size))
+                     for x, c in zip(X, specs)]).reshape(-1, 3)  # world AABB half extents [m]
+    own = np.array([0.0 if c.fixed else c.total_mass() for c in specs])
+    gap = np.abs(p[:, None, :2] - p[None, :, :2]) - (half[:, None, :2] + half[None, :, :2])  # (m, m, 2) [m]
+    above = np.all(gap < -1e-6, axis=2) & (p[None, :, 2] > p[:, None, 2] + 0.1)  # above[i, j]: j stands on i's column
+    column: list[set] = [set() for _ in range(m)]
+    for i in np.argsort(-p[:, 2], kind="stable"):  # highest first: the columns above are complete
+        for j in np.flatnonzero(above[i]):
+            column[i].add(int(j))
+            column[i] |= column[j]
+    return own, column
+
+
 def stability_numbers(scenario, pairs, kappa, dissipation: float) -> list[dict]:
     """Per pair: the normal and tilt modes' (h w)^2 + 2 h c / m (stable below 4; see the
-    module docstring), with the figures they come from."""
+    module docstring), with the figures they come from. A stacked pair's static load (one box in
+    the other's column) is what its upper box carries (carried_masses: itself and its column);
+    a pair side by side carries no column: a box leaning on its neighbour presses with about its
+    own weight, so its load is the upper box's own mass."""
     specs = scenario.containers
     h = scenario.plant.time_step
+    z = np.array([c.pose().translation()[2] for c in specs])
+    own, column = _columns(specs)
+    carried = np.array([own[i] + sum(own[j] for j in column[i]) for i in range(len(specs))])
     out = []
     for (i, j), kap in zip(pairs, kappa):
         a, b = specs[i], specs[j]
@@ -90,8 +127,8 @@ def stability_numbers(scenario, pairs, kappa, dissipation: float) -> list[dict]:
             # about the face's long edge direction through the face centre (the stiffer, short-side tilt)
             I = m * (wid**2 + size[face] ** 2) / 12.0 + m * (0.5 * size[face]) ** 2
             inv_I += 1.0 / I
-        z_top = max(a.pose().translation()[2], b.pose().translation()[2])
-        load = GRAVITY * sum(c.total_mass() for c in specs if not c.fixed and c.pose().translation()[2] >= z_top - 0.1)
+        upper, lower = (j, i) if z[j] >= z[i] else (i, j)
+        load = GRAVITY * (carried[upper] if upper in column[lower] else own[upper])
         c = dissipation * load  # [N s/m] Hunt-Crossley at the static load
         normal = (h * math.sqrt(2 * k * inv_m)) ** 2 + 2 * h * c * inv_m
         k_tilt = kap * wid**3 * l / 12.0  # [N m/rad]

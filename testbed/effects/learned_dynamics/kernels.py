@@ -43,6 +43,85 @@ def bodies_from_state(x, q_start, v_start, fixed_p, fixed_R, free):
 
 
 @njit(cache=True)
+def broad_phase(p, R, half, free, margin):
+    """Candidate pairs by sort and sweep: (ia, ib) (k,) container indices, ia < ib, sorted by
+    (ia, ib), of the pairs with one body free whose world axis-aligned boxes (|R| half about p,
+    each grown by margin / 2 [m]) overlap on all three axes. The sweep runs along the world axis
+    on which the boxes' centres spread most relative to their extents (a yard block's bays), so
+    its work is about N log N plus the boxes that share that axis's interval. Every pair the
+    narrow tests of near_pairs keep and whose boxes are not separated by margin along a world
+    axis is listed (a pair separated so is at least margin apart, whatever near_pairs' face axes say)."""
+    m = len(p)
+    lo, hi = np.empty((m, 3)), np.empty((m, 3))
+    for i in range(m):
+        for a in range(3):
+            e = 0.5 * margin
+            for c in range(3):
+                e += abs(R[i, a, c]) * half[i, c]
+            lo[i, a], hi[i, a] = p[i, a] - e, p[i, a] + e
+    axis, best = 0, -1.0
+    for a in range(3):
+        width = 0.0
+        for i in range(m):
+            width += hi[i, a] - lo[i, a]
+        score = (np.max(p[:, a]) - np.min(p[:, a])) * m / max(width, 1e-12)
+        if score > best:
+            axis, best = a, score
+    order = np.argsort(lo[:, axis])
+    keys = []
+    for s in range(m):
+        i = order[s]
+        for t in range(s + 1, m):
+            j = order[t]
+            if lo[j, axis] > hi[i, axis]:
+                break
+            if not (free[i] or free[j]):
+                continue
+            apart = False
+            for a in range(3):
+                if lo[j, a] > hi[i, a] or lo[i, a] > hi[j, a]:
+                    apart = True
+            if not apart:
+                keys.append(min(i, j) * m + max(i, j))
+    out = np.sort(np.array(keys, dtype=np.int64)) if len(keys) else np.zeros(0, np.int64)
+    return out // m, out % m
+
+
+@njit(cache=True)
+def gather_pairs(ia, ib, n, keys, rows, type_index, kappa_tt):
+    """Per pair (ia, ib (k,), keys ia * n + ib): its kappa (k,) [Pa/m] from kappa_tt (T, T) by the
+    containers' type rows, and its stick anchors (k, 7) from the held (keys (s,) ascending,
+    rows (s, 7)); zeros (not stuck) for a pair not held."""
+    k = len(ia)
+    kappa, held = np.empty(k), np.zeros((k, 7))
+    at = np.searchsorted(keys, ia * n + ib)
+    for r in range(k):
+        kappa[r] = kappa_tt[type_index[ia[r]], type_index[ib[r]]]
+        if at[r] < len(keys) and keys[at[r]] == ia[r] * n + ib[r]:
+            held[r] = rows[at[r]]
+    return kappa, held
+
+
+@njit(cache=True)
+def pack_anchors(ia, ib, n, anchors_next, stuck_next):
+    """The anchors to hold for the next step: (keys (s,), rows (s, 7)) of the pairs whose
+    stuck_next > 0, in the pairs' (ascending key) order."""
+    s = 0
+    for r in range(len(ia)):
+        if stuck_next[r] > 0:
+            s += 1
+    keys, rows = np.empty(s, np.int64), np.empty((s, 7))
+    s = 0
+    for r in range(len(ia)):
+        if stuck_next[r] > 0:
+            keys[s] = ia[r] * n + ib[r]
+            rows[s, :6] = anchors_next[r]
+            rows[s, 6] = stuck_next[r]
+            s += 1
+    return keys, rows
+
+
+@njit(cache=True)
 def near_pairs(p, R, ia, ib, half, radius, free, margin):
     """Candidate pairs: one body free, bounding spheres within `margin` [m], and no face
     axis separating the boxes by more than `margin` (face_axis_overlap). Returns their

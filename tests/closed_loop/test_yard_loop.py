@@ -1,0 +1,130 @@
+"""The learned loop at yard scale (issue 29, deliverable 2): the stability check loads a pair
+with what its upper box carries (its column), and candidate pairs come from a broad phase.
+
+The truly unstable stack: three empty 40 ft boxes (3.75 t) at a 2.5 ms step. Its stiffness term
+(h w)^2 = h^2 2 k (1/m_a + 1/m_b) is 9.6 (k = 4.1e7 Pa/m x 12.19 x 2.438 m^2 = 1.2e9 N/m), above
+the explicit step's bound of 4; run with the check switched off it diverges at t = 0.058 s
+(measured). At 1.5 ms it is 3.7, and it runs. The side-by-side check: an empty box under three
+28 t ones (2.5 + 0.74 stiffness: stable) stays stable beside a twin stack 0.4 m away, which the
+old check (every container at or above the pair) summed into 5.7 and refused.
+"""
+
+import numpy as np
+import pytest
+
+from testbed import shipped_scenes
+from testbed.effects.learned_dynamics import kernels
+from testbed.effects.learned_dynamics.force_law import carried_masses
+from testbed.errors import ScenarioError
+from testbed.scenario import load_scenario
+
+LEARNED = ["effects.learned_dynamics={}", "effects.shadow_contact=null"]
+
+STACK = """
+name: column
+duration: 0.2
+yards:
+- {{name: s, type: 1AA, rows: {rows}, tiers: {tiers}, masses: {masses}}}
+effects: {{contact: {{model: point}}, friction: {{}}, learned_dynamics: {{}}}}
+"""
+
+
+def _stack(rows, masses):
+    return STACK.format(rows=rows, tiers=len(masses), masses=list(masses))
+
+
+def test_a_truly_unstable_stack_is_refused():
+    text = _stack(1, [3750.0] * 3).replace("duration: 0.2", "duration: 0.2\nplant: {time_step: 0.0025}")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(text=text)
+    message = str(info.value)
+    assert "'s_r1_b1_t1'-'s_r1_b1_t2'" in message and "unstable at plant.time_step = 0.0025 s" in message, message
+    assert "\n" not in message
+    load_scenario(text=text.replace("0.0025", "0.0015"))  # 3.7: stable, and it runs (measured)
+
+
+def test_side_by_side_stacks_do_not_load_each_other():
+    single = load_scenario(text=_stack(1, [3750.0] + [28000.0] * 3))
+    twin = load_scenario(text=_stack(2, [3750.0] + [28000.0] * 3))  # 0.4 m apart: was refused (5.7)
+    worst = [max(max(r["normal"], r["tilt"]) for r in s.effects.learned_dynamics and
+                 _checked(s).stability) for s in (single, twin)]
+    assert worst[0] == pytest.approx(worst[1], rel=1e-12) and worst[0] < 4.0
+    assert carried_masses(twin.containers).tolist() == [87750.0, 84000.0, 56000.0, 28000.0] * 2
+
+
+def _checked(scenario):
+    from testbed.scenario import _CHECKED
+
+    return getattr(scenario, _CHECKED)[1]["learned_dynamics"]
+
+
+def test_a_box_on_two_carries_into_both():
+    text = """
+name: bridge_like
+containers:
+- {name: left, type: 1CC, mass: 10000.0, X_WC: {translation: [-3.048, 0, 1.2955]}}
+- {name: right, type: 1CC, mass: 8000.0, X_WC: {translation: [3.048, 0, 1.2955]}}
+- {name: span, type: 1AA, mass: 20000.0, X_WC: {translation: [0, 0, 3.8865]}}
+- {name: top, type: 1CC, mass: 5000.0, X_WC: {translation: [3.0, 0, 6.4775]}}
+"""
+    assert carried_masses(load_scenario(text=text).containers).tolist() == [35000.0, 33000.0, 25000.0, 5000.0]
+
+
+YARDS = sorted(n for n in shipped_scenes() if n.startswith("yard"))
+
+
+@pytest.mark.parametrize("name", YARDS)
+def test_every_shipped_yard_is_accepted_at_its_1ms_step(name):
+    scenario = load_scenario(name, overrides=LEARNED)
+    assert scenario.plant.time_step == 1e-3
+    worst = max(max(r["normal"], r["tilt"]) for r in _checked(scenario).stability)
+    assert worst < 4.0
+
+
+def _all_pairs(m, free):
+    ia, ib = np.triu_indices(m, 1)
+    keep = free[ia] | free[ib]
+    return ia[keep].astype(np.int64), ib[keep].astype(np.int64)
+
+
+@pytest.mark.parametrize("name", ["nine_mixed_stack", "bridge", "crane_landing_sway", "stack_slide_rest", "yard_small", "yard_crane_slot"])
+def test_the_broad_phase_finds_the_pairs_all_pairs_find(name):
+    """On shipped scenes' poses, shaken (tilts to 0.1 rad, shifts to 0.3 m, seeded), near_pairs on
+    the broad phase's candidates keeps exactly the pairs it keeps on all N(N-1)/2, in the same order."""
+    specs = load_scenario(name).containers
+    half = np.array([0.5 * np.asarray(c.container_type().size) for c in specs])
+    radius = np.linalg.norm(half, axis=1)
+    free = np.array([not c.fixed for c in specs])
+    p0 = np.array([c.pose().translation() for c in specs])
+    rng = np.random.default_rng(29)
+    for trial in range(50):
+        scale = trial / 50
+        p = p0 + scale * rng.uniform(-0.3, 0.3, p0.shape)
+        R = []
+        for _ in specs:
+            a, b, c = scale * rng.uniform(-0.1, 0.1, 3)
+            Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+            Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+            Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
+            R.append(Rz @ Ry @ Rx)
+        R = np.array([Ri @ c.pose().rotation().matrix() for Ri, c in zip(R, specs)])
+        ia, ib = _all_pairs(len(specs), free)
+        keep, p_AB, R_AB = kernels.near_pairs(p, R, ia, ib, half, radius, free, 0.05)
+        ca, cb = kernels.broad_phase(p, R, half, free, 0.05)
+        keep2, p_AB2, R_AB2 = kernels.near_pairs(p, R, ca, cb, half, radius, free, 0.05)
+        assert np.array_equal(np.stack([ia[keep], ib[keep]]), np.stack([ca[keep2], cb[keep2]]))
+        assert np.array_equal(p_AB, p_AB2) and np.array_equal(R_AB, R_AB2)
+
+
+def test_the_broad_phase_grows_about_linearly_on_a_yard():
+    """Candidates per container stay bounded as the block grows (4 x 6 x 4 -> 6 x 8 x 4)."""
+    counts = []
+    for rows, bays in ((2, 2), (4, 6), (6, 8)):
+        specs = load_scenario("yard_block", overrides=[f"yards[0].rows={rows}", f"yards[0].bays={bays}"]).containers
+        half = np.array([0.5 * np.asarray(c.container_type().size) for c in specs])
+        p = np.array([c.pose().translation() for c in specs])
+        R = np.array([np.eye(3)] * len(specs))
+        ca, cb = kernels.broad_phase(p, R, half, np.ones(len(specs), bool), 0.05)
+        counts.append(len(ca) / len(specs))
+        assert len(ca) == rows * bays * 3  # the stacked pairs, nothing across the 0.4 / 0.6 m gaps
+    assert max(counts) < 1.0
