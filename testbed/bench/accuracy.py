@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.gates import GeometricPrior, gate_figures, held_out, verdicts
+from learned_contact.interface import SIZE_TOLERANCE
 from learned_contact.metrics import point_normal_errors
 
 SETS = ("stacking", "general", "outside", "resting")
@@ -40,9 +41,37 @@ def _stats(point, normal, ds) -> dict:
     return out
 
 
+def supported_rows(predictor, ds) -> np.ndarray:
+    """(n,) bool: poses of Dataset `ds` whose two sizes are both among the predictor's
+    supported_sizes (within learned_contact.interface.SIZE_TOLERANCE per axis)."""
+    supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
+
+    def ok(size):
+        return np.abs(np.asarray(size, dtype=float)[:, None, :] - supported[None]).max(axis=2).min(axis=1) <= SIZE_TOLERANCE
+
+    return ok(ds.size_A) & ok(ds.size_B)
+
+
+def covered(predictor, data: dict) -> tuple[dict, dict]:
+    """(the sets cut to the poses the predictor declares it answers, {set: (kept, of)}): a
+    model for one container type is judged on its own type's poses; a set it does not
+    cover at all is left out (its gates with it: learned_contact.gates.verdicts)."""
+    kept, counts = {}, {}
+    for name, ds in data.items():
+        rows = supported_rows(predictor, ds)
+        counts[name] = (int(rows.sum()), len(ds))
+        if rows.all():
+            kept[name] = ds
+        elif rows.any():
+            kept[name] = ds.subset(np.flatnonzero(rows))
+    return kept, counts
+
+
 def accuracy(predictor, data: dict, seed: int) -> dict:
     """{"sets": {set: figures + "*_vs_prior" ratios + "n"}, "gates": learned_contact.gates
-    verdicts, "gates_passed", "gates_total"} for one predictor on `data` (pose_sets)."""
+    verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one predictor
+    on the poses of `data` (pose_sets) it declares it answers (`covered`)."""
+    data, counts = covered(predictor, data)
     prior = GeometricPrior()
     sets = {}
     for name, ds in data.items():
@@ -53,5 +82,6 @@ def accuracy(predictor, data: dict, seed: int) -> dict:
             figures[f"{key}_vs_prior"] = value / base[key] if base[key] > 0 else float("inf")
             figures[f"prior_{key}"] = base[key]
         sets[name] = figures
-    gates = verdicts(gate_figures(predictor, data), len(data["stacking"]), seed)
-    return {"sets": sets, "gates": gates, "gates_passed": sum(g["passed"] for g in gates), "gates_total": len(gates)}
+    gates = verdicts(gate_figures(predictor, data), max((len(ds) for ds in data.values()), default=0), seed) if data else []
+    return {"sets": sets, "gates": gates, "gates_passed": sum(g["passed"] for g in gates), "gates_total": len(gates),
+            "coverage": {k: list(v) for k, v in counts.items()}}

@@ -136,10 +136,27 @@ def _discrimination(data: dict) -> list:
             Bullets(tuple(f"{s}: {DISCRIMINATION[s]}" for s in scenes))]
 
 
+def headline(data: dict) -> tuple[bool, list[str]]:
+    """(every judged model good enough, one line per model: the judged models first, then
+    the others as references). The judged models are those the user named that the testbed
+    did not ship (testbed.bench.run.judged); the headline and the exit status speak of them."""
+    judged = data.get("judged") or list(data["leaderboard"])
+    lines = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}" for s in judged]
+    lines += [f"reference {data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}"
+              for s in data["leaderboard"] if s not in judged]
+    return all(data["predictors"][s]["good_enough"] for s in judged), lines
+
+
+def _not_covered(data: dict) -> list:
+    rows = [f"{data['predictors'][s]['label']}: {why}" for s in data["leaderboard"]
+            for why in data["predictors"][s].get("not_covered", [])]
+    return [Text("Not covered (the model declares fewer container sizes; judged on what it declares):"),
+            Bullets(tuple(rows))] if rows else []
+
+
 def sections(data: dict) -> list[Section]:
-    verdicts = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}" for s in data["leaderboard"]]
-    head = Section(None, [Verdict(any(data["predictors"][s]["good_enough"] for s in data["leaderboard"]),
-                                  " | ".join(verdicts))], order=0)
+    good, lines = headline(data)
+    head = Section(None, [Verdict(good, " | ".join(lines)), *_not_covered(data)], order=0)
     return [head, _leaderboard(data), _accuracy(data), _cost(data), _scenes(data)]
 
 

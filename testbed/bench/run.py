@@ -14,12 +14,16 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
+
+from learned_contact.interface import SIZE_TOLERANCE
 from learned_contact.sources import SHIPPED_NAMES, label, load_predictor
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop, open_loop
 from testbed.errors import TestbedError
+from testbed.scenario import load_scenario
 
 SCHEMA = "testbed.bench/1"
 DEFAULT_PREDICTORS = SHIPPED_NAMES
@@ -39,6 +43,30 @@ def known_limits(entry: dict) -> list[str]:
                   if g["passed"] and g["name"].endswith(KNOWN)]
 
 
+def judged(specs) -> list[str]:
+    """The models a bench run speaks about: those the user named that the testbed did not
+    ship, or, when every one is shipped, all of them (its headline and exit status)."""
+    own = [s for s in specs if s not in SHIPPED_NAMES]
+    return own or list(specs)
+
+
+def uncovered(predictor, scene: str) -> str | None:
+    """None, or "SCENE: container 'NAME' (type T, size (x, y, z) m) is not a size the model
+    declares" for the first container of the scene the predictor does not answer."""
+    supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
+    for c in load_scenario(scene).containers:
+        size = np.asarray(c.container_type().size, dtype=float)
+        if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE:
+            return (f"{scene}: container '{c.name}' (type {c.type}, size {tuple(round(float(v), 3) for v in size)} m) "
+                    "is not a size the model declares")
+    return None
+
+
+def _uncovered_sets(acc: dict) -> list[str]:
+    return [f"accuracy set {name}: {kept} of {of} poses have sizes the model declares" + ("" if kept else " (not judged)")
+            for name, (kept, of) in acc["coverage"].items() if kept < of]
+
+
 def _verdict(entry: dict) -> tuple[bool, str]:
     """(good enough, one line): every accuracy gate and every closed-loop scene's gates pass;
     'within known limits' when some pass only within their pinned bands (targets not met)."""
@@ -48,10 +76,13 @@ def _verdict(entry: dict) -> tuple[bool, str]:
     cost = entry["cost"]
     good = acc["gates_passed"] == acc["gates_total"] and not failed
     limits = known_limits(entry)
+    good = good and acc["gates_total"] > 0 and bool(closed)  # nothing judged is not good enough
     word = ("GOOD ENOUGH" + (f" WITHIN {len(limits)} KNOWN LIMITS" if limits else "")) if good else "NOT GOOD ENOUGH"
-    return good, (f"{word}: accuracy gates {acc['gates_passed']}/"
-                  f"{acc['gates_total']}, closed loop {len(held)}/{len(closed)} scenes within gates"
+    return good, (f"{word}: accuracy gates {acc['gates_passed']} of "
+                  f"{acc['gates_total']} passed, closed loop {len(held)} of {len(closed)} scenes within gates"
                   + (f" (fails {', '.join(failed)})" if failed else "")
+                  + (f"; not covered: {len(entry['not_covered'])} (the model declares fewer container sizes)"
+                     if entry.get("not_covered") else "")
                   + (f"; targets not met, held only within pinned bands: {', '.join(limits)}" if good and limits else "")
                   + f", {cost['batched_vs_drake_point']:.2g}x Drake point-pair's cost per pair batched, "
                   f"{cost['single_vs_drake_point']:.2g}x one pair per call")
@@ -89,23 +120,37 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     for s in specs:
         entries[s]["cost"] = costs["predictors"][s]
     for s in specs:
-        entries[s]["in_scene"] = {}
+        entries[s]["in_scene"], entries[s]["not_covered"] = {}, _uncovered_sets(entries[s]["accuracy"])
         for scene, duration in (QUICK_OPEN_SCENES if quick else OPEN_SCENES):
+            missing = uncovered(loaded[s], scene)
+            if missing:
+                entries[s]["not_covered"].append(missing)
+                continue
             say(f"in-scene (open loop): {s} on {scene}")
             entries[s]["in_scene"][scene] = open_loop(s, scene, duration)
     for s in specs:
         entries[s]["closed_loop"] = {}
     for scene, duration in (QUICK_CLOSED_SCENES if quick else CLOSED_SCENES):
-        say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
-        result = closed_loop(specs, scene, duration)
+        able = []
         for s in specs:
+            missing = uncovered(loaded[s], scene)
+            if missing:
+                entries[s]["not_covered"].append(f"closed loop: {missing}")
+            else:
+                able.append(s)
+        if not able:
+            continue
+        say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
+        result = closed_loop(able, scene, duration)
+        for s in able:
             entries[s]["closed_loop"][scene] = {**result["predictors"][s], "duration_s": result["duration_s"]}
     for s in specs:
         entries[s]["good_enough"], entries[s]["verdict"] = _verdict(entries[s])
         entries[s]["known_limits"] = known_limits(entries[s])
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
-           "references": costs["references"], "leaderboard": board, "wall_s": time.perf_counter() - t0}
+           "references": costs["references"], "leaderboard": board, "judged": judged(specs),
+           "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
 
         write_bench(Path(out_dir), out)

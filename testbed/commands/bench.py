@@ -8,7 +8,9 @@ from learned_contact import sources
 from testbed.commands import timestamp
 
 NAME = "bench"
-HELP = "judge one or more contact predictors side by side (accuracy, scenes, closed loop, cost) -> bench.json"
+HELP = ("judge one or more contact predictors side by side (accuracy, scenes, closed loop, cost) -> bench.json; "
+        "exit 0 when every model you named that the testbed did not ship (or, naming only shipped ones, every one) "
+        "is good enough, 1 when one is not, 2 on bad input")
 
 
 def add_arguments(parser) -> None:
@@ -30,8 +32,11 @@ def run(args) -> int:
     out = Path(args.out) if args.out else Path("reports") / "bench" / timestamp()
     data = bench(args.predictors or list(sources.SHIPPED_NAMES), quick=args.quick, out_dir=out, seed=args.seed,
                  workers=args.workers)
-    for rank, spec in enumerate(data["leaderboard"], 1):
-        e = data["predictors"][spec]
-        print(f"{rank}. {e['label']} ({e['kind']}): {e['verdict']}")
+    from testbed.bench.report import headline
+
+    good, lines = headline(data)
+    for line in lines:
+        print(line)
+    print("leaderboard: " + ", ".join(f"{rank}. {data['predictors'][s]['label']}" for rank, s in enumerate(data["leaderboard"], 1)))
     print(f"report: {out / 'index.html'}")
-    return 0
+    return 0 if good else 1

@@ -135,11 +135,14 @@ def verdict_lines(f: dict) -> list[str]:
     if "speedup_vs_point" in f:
         ratios.append(speed(f["speedup_vs_point"], "Drake point"))
     lines.append(f"  speed (wall time per simulated second): {', '.join(ratios)}")
-    passed = sum(g["passed"] for g in f["gates"])
-    failed = f", failed: {', '.join(f['gates_failed'])}" if f["gates_failed"] else ""
+    total, failed = len(f["gates"]), list(f["gates_failed"])
+    if failed:
+        counted = f"{len(failed)} of {total} gates failed: {', '.join(failed)}"
+    else:
+        counted = f"all {total} gates passed"
     if f.get("gates_known_limits"):
-        failed += (f"; {len(f['gates_known_limits'])} of them only within pinned known limits, far outside the "
-                   "bounds (see each gate)")
-    lines.append(f"verdict: {f['verdict']} ({passed} of {len(f['gates'])} gates{failed}; exit status {f['exit_status']})")
+        counted += (f"; {len(f['gates_known_limits'])} passed only within pinned known limits, far outside the "
+                    "bounds (see each gate)")
+    lines.append(f"verdict: {f['verdict']}: {counted} (exit status {f['exit_status']})")
     return lines
 

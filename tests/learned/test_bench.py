@@ -72,6 +72,41 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
     assert all(label in html for label in ("improved", "centre_line", "GeometricModel")) and "data:image/png;base64" in html
 
 
+def test_the_headline_speaks_of_the_models_the_user_named(quick_bench, centre_line):
+    """The shipped model passing does not make the headline pass: it is a reference line, the
+    headline and the exit status judge the user's models (both fail here)."""
+    from testbed.bench.report import headline
+
+    data, out = quick_bench
+    assert data["judged"] == [centre_line, "bench_models:GeometricModel"]
+    good, lines = headline(data)
+    assert not good and data["predictors"]["improved"]["good_enough"]
+    assert lines[0].startswith("centre_line: NOT GOOD ENOUGH") and lines[-1].startswith("reference improved: GOOD ENOUGH")
+    assert "gates 15 of 15 passed" in data["predictors"]["improved"]["verdict"]
+
+
+class FortyFootOnly(bm.GeometricModel):
+    """The geometric model declaring only the two 40 ft sizes."""
+
+    supported_sizes = np.array(bm.CONTAINER_SIZES[1:])
+
+
+def test_a_model_is_judged_on_the_container_sizes_it_declares():
+    from testbed.bench.accuracy import covered, pose_sets
+    from testbed.bench.run import uncovered
+
+    model = FortyFootOnly()
+    data = pose_sets(0, 60, workers=1)
+    kept, counts = covered(model, data)
+    for name, (n_kept, n_all) in counts.items():
+        assert 0 < n_kept < n_all, (name, counts)  # the held-out sets mix 20 ft and 40 ft boxes
+        sizes = np.vstack([kept[name].size_A, kept[name].size_B])
+        assert np.all(sizes[:, 0] > 12.0)  # only 40 ft boxes are asked
+    assert uncovered(model, "two_stack") == ("two_stack: container 'bottom' (type 1CC, size (6.058, 2.438, 2.591) m) "
+                                             "is not a size the model declares")
+    assert uncovered(model, "windy_stack") is None  # two 40 ft boxes
+
+
 def test_bench_cli_refuses_a_bad_model_with_nothing_written(tmp_path):
     bad = bm.centre_line_onnx(tmp_path / "bad.onnx", input_names=("p", "R_AB", "size_A", "size_B"))
     out = tmp_path / "out"
