@@ -86,6 +86,13 @@ class GeometricModel:
         return self._prior.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
 
 
+class FortyFootOnly(GeometricModel):
+    """The geometric model declaring only the two 40 ft sizes (a model for one container length)."""
+
+    name = "forty_foot"
+    supported_sizes = np.array(CONTAINER_SIZES[1:])
+
+
 class NaNModel:
     """Answers NaN for every point: refused when loaded."""
 

@@ -85,17 +85,11 @@ def test_the_headline_speaks_of_the_models_the_user_named(quick_bench, centre_li
     assert "gates 15 of 15 passed" in data["predictors"]["improved"]["verdict"]
 
 
-class FortyFootOnly(bm.GeometricModel):
-    """The geometric model declaring only the two 40 ft sizes."""
-
-    supported_sizes = np.array(bm.CONTAINER_SIZES[1:])
-
-
 def test_a_model_is_judged_on_the_container_sizes_it_declares():
     from testbed.bench.accuracy import covered, pose_sets
     from testbed.bench.run import uncovered
 
-    model = FortyFootOnly()
+    model = bm.FortyFootOnly()
     data = pose_sets(0, 60, workers=1)
     kept, counts = covered(model, data)
     for name, (n_kept, n_all) in counts.items():
@@ -105,6 +99,15 @@ def test_a_model_is_judged_on_the_container_sizes_it_declares():
     assert uncovered(model, "two_stack") == ("two_stack: container 'bottom' (type 1CC, size (6.058, 2.438, 2.591) m) "
                                              "is not a size the model declares")
     assert uncovered(model, "windy_stack") is None  # two 40 ft boxes
+
+
+def test_a_scene_with_a_size_the_model_does_not_declare_is_named_at_build():
+    from testbed.errors import ScenarioError
+    from testbed.scenario import load_scenario
+
+    with pytest.raises(ScenarioError, match="containers\\[0\\]: 'tier1' \\(type 1CC") as info:
+        load_scenario("five_stack", overrides=["effects.learned_dynamics={predictor: 'bench_models:FortyFootOnly'}"])
+    assert "five_stack.yaml" in str(info.value) and "bench_models:FortyFootOnly declares" in str(info.value)
 
 
 def test_bench_cli_refuses_a_bad_model_with_nothing_written(tmp_path):

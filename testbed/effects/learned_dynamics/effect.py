@@ -43,6 +43,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 from learned_contact import WeightsError, load_predictor
+from learned_contact.interface import SIZE_TOLERANCE
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
@@ -302,6 +303,15 @@ class LearnedDynamicsEffect(Effect):
         except WeightsError as e:
             raise self.fail("predictor", f"{e} (learned_contact.sources lists what a predictor can be)") from None
         specs = self.scenario.containers
+        supported = np.asarray(self.predictor.supported_sizes, dtype=float).reshape(-1, 3)
+        for i, spec in enumerate(specs):  # at build time, naming the scene and the container, not mid-run
+            size = np.asarray(CONTAINER_TYPES[spec.type].size, dtype=float)
+            if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE:
+                choices = "; ".join(str(tuple(round(float(v), 3) for v in s)) for s in supported)
+                raise ScenarioError(self.source, f"containers[{i}]",
+                                    f"'{spec.name}' (type {spec.type}, size {tuple(round(float(v), 3) for v in size)} m) is not "
+                                    f"a size the predictor {c.predictor} declares (full extents [m]: {choices}); the learned "
+                                    "closed loop asks it about every pair of containers")
         self.pairs = [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))
                       if not (specs[i].fixed and specs[j].fixed)]
         self.modulus = law_modulus(self.scenario)
