@@ -2,8 +2,11 @@
 
 Each container is a free body (welded when `fixed`) with one box geom, body frame C at the
 geometric centre, the SDF's mass and solid-box inertia; the quay is a plane at z = 0 (a
-scene's ground_surface a plane at its height); contact is one explicit `<pair>` per
-ground-container and container-container pair with elliptic cones and the scene's mu_dynamic;
+scene's ground_surface a plane at its height); contact: one explicit `<pair>` per
+ground-container pair and per container pair that can meet (contact_pairs: within NEIGHBOUR_REACH
+at the start, in one column, or with a container that starts moving), every other container pair
+found by MuJoCo's own broad phase (contype = conaffinity = 1) with each container geom's own
+parameters mixed (geom_parameters); elliptic cones and the scene's mu_dynamic;
 wind and the crane are applied forces (run.py, crane.py). Effects whose role is not PHYSICS
 are ignored; a PHYSICS effect MuJoCo cannot translate (learned_dynamics) raises
 UnsupportedSceneError.
@@ -16,8 +19,9 @@ Assumptions: Drake's compliant box has foundation depth half its smallest side; 
 and face-on-face box-box contacts give 4 MuJoCo contacts (impedance floored at
 MATCHED_IMPEDANCE = 0.1 because some steps give 6 or 8); the pair areas are the initial
 footprint overlaps; not translated: hydroelastic_margin and mu_static (Drake's discrete
-solvers ignore mu_static too); the MJCF forces MuJoCo's dense Jacobian (4.0.0's sparse
-Newton factorisation is wrong, MuJoCo issue 3767; README.md, "Solver path").
+solvers ignore mu_static too); Newton with jacobian="auto" (dense below nv = 60, sparse above:
+measured, README.md "Solver path": the sparse path solves the shipped scenes as the dense one
+does, on 4.0.0 and 3.17.0 alike, and is 3.7x faster on the 96-container yard).
 
 README.md beside this file holds the translation rules in full, the derivation of the
 matched parameters with worked numbers, and the measurements behind each choice.
@@ -41,9 +45,12 @@ from testbed.errors import OptionalDependencyError, UnknownChoiceError
 from testbed.physics import GRAVITY
 from testbed.scenario import Scenario
 
+NEIGHBOUR_REACH = 0.5  # [m] container pairs whose initial world boxes are this close get an explicit <pair>
 CONTACTS_PER_FACE = 4  # MuJoCo's contacts for a face-on-face box pair (measured, tests)
 MATCHED_IMPEDANCE = 0.1  # smallest d0 of the matched set (see the module docstring)
 MATCHED_IMPRATIO = 100.0
+JACOBIAN = "auto"  # dense below nv = 60, sparse above (README.md, "Solver path": measured)
+SOLVER = "Newton"  # CG and PGS measured slower and less converged on the 96-container yard (README.md)
 DEFAULT_SOLREF = (0.02, 1.0)  # MuJoCo's defaults, written out for the record
 DEFAULT_SOLIMP = (0.9, 0.95, 0.001, 0.5, 2.0)
 ENGINE_NAME = "mujoco"  # what an effect's `translated_by` names when this engine reproduces it
@@ -70,6 +77,7 @@ class PairParams:
     stiffness: float = float("nan")  # [N/m] Drake's hydroelastic pair stiffness k (matched only)
     damping: float = float("nan")  # [N s/m] Drake's pair damping c (matched only)
     mass_factor: float = float("nan")  # MuJoCo's added mass: the pair mode's mass / m_eff (matched only)
+    explicit: bool = True  # an MJCF <pair>; False: a geom's own parameters (geom_parameters)
 
 
 @dataclasses.dataclass
@@ -77,7 +85,9 @@ class Translation:
     """A translated scene: the MJCF text and what it was made from.
 
     body_names: ground first (if any), then containers in scene order (Drake's plant order);
-    free_names: the containers that move; pairs: the contact pairs and their parameters.
+    free_names: the containers that move; pairs: the explicit contact pairs and their
+    parameters; geoms: per container (scene order) the parameters its geom carries into the
+    pairs MuJoCo's broad phase finds (a, b = its body index, itself), None without contact.
     """
 
     scenario: Scenario
@@ -87,6 +97,7 @@ class Translation:
     body_names: list
     free_names: list
     pairs: list
+    geoms: list = dataclasses.field(default_factory=list)
 
 
 def check_supported(scenario: Scenario) -> None:
@@ -216,27 +227,77 @@ def drake_step_factor(k: float, c: float, m: float, h: float) -> float:
     return 1.0 + h * h * k / m + h * c / m
 
 
+def _params(scenario: Scenario, params: str, spec_a, spec_b, a: int, b: int, h: float, explicit: bool = True) -> PairParams:
+    """One pair's PairParams (spec_a None = the ground; a, b their body_names indices)."""
+    mu = pair_friction(scenario, spec_a, spec_b)
+    if params == "default":
+        return PairParams(a, b, mu, DEFAULT_SOLREF, DEFAULT_SOLIMP, explicit=explicit)
+    k, c, solref, solimp, mass_factor = matched_pair(scenario, spec_a, spec_b, h)
+    return PairParams(a, b, mu, solref, solimp, k, c, mass_factor, explicit)
+
+
+def _world_boxes(specs) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) (m, 3) [m]: the containers' world axis-aligned boxes at their initial poses."""
+    centre, reach = [], []
+    for spec in specs:
+        X = spec.pose()
+        centre.append(X.translation())
+        reach.append(np.abs(X.rotation().matrix()) @ spec.container_type().half_size)
+    centre, reach = np.array(centre).reshape(-1, 3), np.array(reach).reshape(-1, 3)
+    return centre - reach, centre + reach
+
+
+def can_meet(scenario: Scenario) -> np.ndarray:
+    """(m, m) bool: the container pairs that get an explicit <pair> (matched parameters exact):
+    one container free, and their initial world boxes within NEIGHBOUR_REACH [m] of each other,
+    or their footprints so close (one column: a drop, a stack), or one of them moving at the
+    start (a nonzero initial velocity, the crane's load). Every other pair is left to MuJoCo's
+    broad phase with the geoms' mixed parameters (geom_parameters)."""
+    specs = scenario.containers
+    lo, hi = _world_boxes(specs)
+    gap = np.maximum(lo[:, None, :] - hi[None, :, :], lo[None, :, :] - hi[:, None, :])  # (m, m, 3) [m]
+    near = np.all(gap < NEIGHBOUR_REACH, axis=2) | np.all(gap[..., :2] < NEIGHBOUR_REACH, axis=2)
+    crane = scenario.effects.crane
+    moving = np.array([np.any(np.asarray(s.V_WC, dtype=float) != 0) or (crane is not None and crane.container == s.name)
+                       for s in specs], dtype=bool)
+    free = np.array([not s.fixed for s in specs], dtype=bool)
+    out = (near | moving[:, None] | moving[None, :]) & (free[:, None] | free[None, :])
+    np.fill_diagonal(out, False)
+    return out
+
+
 def contact_pairs(scenario: Scenario, params: str, h: float) -> list[PairParams]:
-    """Every pair that can touch, with its parameters (see the module docstring)."""
+    """The explicit pairs with their parameters: every ground-container pair, and the
+    container pairs that can meet (can_meet); see the module docstring."""
     if scenario.effects.contact is None:
         return []
     specs = scenario.containers
     offset = 1 if scenario.ground else 0
-    candidates = [(None, j) for j in range(len(specs))] if scenario.ground else []
-    candidates += [(i, j) for i in range(len(specs)) for j in range(i + 1, len(specs))]
+    out = [_params(scenario, params, None, spec, 0, j + offset, h) for j, spec in enumerate(specs)
+           if scenario.ground and not spec.fixed]
+    meet = can_meet(scenario)
+    for i, j in zip(*np.nonzero(np.triu(meet, 1))):
+        out.append(_params(scenario, params, specs[i], specs[j], int(i) + offset, int(j) + offset, h))
+    return out
+
+
+def geom_parameters(scenario: Scenario, params: str, h: float) -> list:
+    """Per container (scene order) the parameters its geom carries for the pairs MuJoCo's broad
+    phase finds (those contact_pairs does not list): its matched pair with a copy of itself
+    face on face (a, b its body index), so that two equal containers stacked get exactly their
+    pair's parameters from MuJoCo's mixing (solref, solimp: the average; friction: the larger);
+    unequal ones the average of theirs (an approximation, for pairs that meet only after others
+    moved: a toppling stack). A fixed container: MuJoCo's defaults. None without contact."""
+    if scenario.effects.contact is None:
+        return [None] * len(scenario.containers)
+    offset = 1 if scenario.ground else 0
     out = []
-    for i, j in candidates:
-        spec_a = None if i is None else specs[i]
-        spec_b = specs[j]
-        if (spec_a is None or spec_a.fixed) and spec_b.fixed:
-            continue  # nothing moves
-        a = 0 if i is None else i + offset
-        mu = pair_friction(scenario, spec_a, spec_b)
-        if params == "default":
-            out.append(PairParams(a, j + offset, mu, DEFAULT_SOLREF, DEFAULT_SOLIMP))
+    for j, spec in enumerate(scenario.containers):
+        if spec.fixed:
+            out.append(PairParams(j + offset, j + offset, pair_friction(scenario, spec, spec), DEFAULT_SOLREF,
+                                  DEFAULT_SOLIMP, explicit=False))
         else:
-            k, c, solref, solimp, slowdown = matched_pair(scenario, spec_a, spec_b, h)
-            out.append(PairParams(a, j + offset, mu, solref, solimp, k, c, slowdown))
+            out.append(_params(scenario, params, spec, spec, j + offset, j + offset, h, explicit=False))
     return out
 
 
@@ -253,9 +314,10 @@ def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: 
     h = scenario.plant.time_step if time_step is None else float(time_step)
     body_names = ([GROUND_NAME] if scenario.ground else []) + [c.name for c in scenario.containers]
     pairs = contact_pairs(scenario, params, h)
+    geoms = geom_parameters(scenario, params, h)
     impratio = MATCHED_IMPRATIO if params == "matched" else 1.0
     bodies, qpos, qvel = [], [], []
-    for spec in scenario.containers:
+    for spec, own in zip(scenario.containers, geoms):
         ctype = spec.container_type()
         moments = (spec.box.inertia if spec.type == BOX_TYPE and spec.box and spec.box.inertia
                    else solid_box_inertia(spec.total_mass(), ctype.size))
@@ -267,7 +329,7 @@ def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: 
             f'    <body name="{spec.name}" pos="{_fmt(p)}" quat="{_fmt(quat)}">{joint}\n'
             f'      <inertial pos="{_fmt(spec.com_offset)}" mass="{float(mass)!r}" '
             f'diaginertia="{_fmt(moments)}"/>\n'
-            f'      <geom name="{spec.name}" type="box" size="{_fmt(ctype.half_size)}" contype="0" conaffinity="0" '
+            f'      <geom name="{spec.name}" type="box" size="{_fmt(ctype.half_size)}" {_geom_contact(own)}'
             f'rgba="{_fmt(ctype.rgba)}"/>\n    </body>')
         if not spec.fixed:
             V = np.asarray(spec.V_WC, dtype=float)
@@ -287,13 +349,24 @@ def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: 
     mjcf = (
         f'<mujoco model="{scenario.name}">\n'
         '  <compiler angle="radian" alignfree="false"/>\n'
-        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}" jacobian="dense"/>\n'
+        f'  <option timestep="{h!r}" gravity="0 0 {-GRAVITY!r}" cone="elliptic" impratio="{impratio!r}" '
+        f'jacobian="{JACOBIAN}" solver="{SOLVER}"/>\n'
         f'  <worldbody>\n{ground}' + "\n".join(bodies) + "\n  </worldbody>\n"
         + ("  <contact>\n" + "\n".join(pair_lines) + "\n  </contact>\n" if pair_lines else "")
         + (f"  <keyframe>\n{key}  </keyframe>\n" if key else "")
         + "</mujoco>\n")
     return Translation(scenario=scenario, mjcf=mjcf, params=params, time_step=h, body_names=body_names,
-                       free_names=[c.name for c in scenario.containers if not c.fixed], pairs=pairs)
+                       free_names=[c.name for c in scenario.containers if not c.fixed], pairs=pairs, geoms=geoms)
+
+
+def _geom_contact(own: PairParams | None) -> str:
+    """A container geom's contact attributes: in MuJoCo's broad phase with its own parameters
+    (geom_parameters), or out of it (contype = conaffinity = 0) without a contact effect."""
+    if own is None:
+        return 'contype="0" conaffinity="0" '
+    condim = 3 if own.friction > 0 else 1
+    return (f'contype="1" conaffinity="1" condim="{condim}" friction="{own.friction!r} 0.005 0.0001" '
+            f'solref="{_fmt(own.solref)}" solimp="{_fmt(own.solimp)}" ')
 
 
 def build_model(scenario: Scenario, *, params: str = "matched", time_step: float | None = None):
