@@ -23,7 +23,7 @@ from typing import Callable
 from learned_contact import limits
 from learned_contact.errors import WeightsError
 from learned_contact.loading import SHIPPED, load_weights
-from learned_contact.onnx_model import load_onnx
+from learned_contact.onnx_model import check_file, load_onnx
 from learned_contact.python_model import is_python_spec, load_python
 
 DEFAULT = "improved"
@@ -116,8 +116,6 @@ def load_predictor(spec=None, *, compiled: bool = True):
     if key not in _loaded:
         if source.key in UNTRUSTED:
             if source.key == "onnx":  # refusals that need no child (file kind, size, nodes, external data)
-                from learned_contact.onnx_model import check_file
-
                 check_file(spec)
             limits.vet_in_child(spec)
         _loaded[key] = source.load(spec, compiled)

@@ -11,18 +11,17 @@ import json
 import os
 import sys
 
+from learned_contact import limits
+from learned_contact.errors import WeightsError
+from learned_contact.sources import load_unvetted
+
 
 def main(argv: list[str], out) -> int:
     spec, payload = argv[0], json.loads(argv[1])
-    from learned_contact import limits
-    from learned_contact.errors import WeightsError
-
     limits.set_limits(**payload)
     if os.getcwd() not in sys.path:
         sys.path.append(os.getcwd())
     try:
-        from learned_contact.sources import load_unvetted
-
         load_unvetted(spec)
     except WeightsError as e:
         print("refused: " + json.dumps(str(e)), file=out, flush=True)

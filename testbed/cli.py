@@ -12,6 +12,7 @@ import argparse
 import re
 import sys
 
+from learned_contact.limits import ModelLimits, set_limits
 from testbed import commands
 from testbed.errors import SimulationError, TestbedError
 
@@ -39,8 +40,6 @@ def _positive(kind):
 
 def add_model_limits(parser: argparse.ArgumentParser) -> None:
     """The bounds on untrusted models (learned_contact.limits), on every command."""
-    from learned_contact.limits import ModelLimits
-
     d = ModelLimits()
     group = parser.add_argument_group("bounds on a model the testbed did not ship (ONNX, module:attribute)")
     group.add_argument("--model-load-timeout", type=_positive(float), default=d.load_timeout_s, metavar="S",
@@ -55,8 +54,6 @@ def add_model_limits(parser: argparse.ArgumentParser) -> None:
 
 
 def _apply_model_limits(args) -> None:
-    from learned_contact.limits import set_limits
-
     set_limits(load_timeout_s=args.model_load_timeout, call_timeout_s=args.model_call_timeout,
                memory_bytes=int(args.model_memory * 2**30), max_nodes=args.model_max_nodes)
 

@@ -45,6 +45,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
+from learned_contact.sources import SHIPPED_NAMES, source_of
 from testbed.bodies.boxes import BOX_TYPE, BoxSpec, GroundSpec, validate_box, validate_ground
 from testbed.bodies.containers import CONTAINER_TYPES, ContainerType
 from testbed.bodies.models import GROUND_NAME
@@ -263,8 +264,6 @@ def _file_predictors(scenario: Scenario, folder: Path, source) -> None:
     predictor or a model file (.onnx, .npz; a relative path is taken from the scene's own folder
     and made absolute here), not `module:attribute`, which only the command line (--predictor,
     --set) and the Python API accept. ScenarioError naming the field otherwise."""
-    from learned_contact.sources import SHIPPED_NAMES, source_of
-
     for name in scenario.declared_effects():
         config = getattr(scenario.effects, name)
         value = getattr(config, "predictor", None)

@@ -23,6 +23,7 @@ from learned_contact import limits
 from learned_contact.errors import WeightsError
 from learned_contact.labels import _pair_scene, _query
 from learned_contact.sources import load_predictor
+from testbed.bench.accuracy import covered
 from testbed.bodies.containers import CONTAINER_TYPES
 
 SINGLE_PAIRS = 200
@@ -123,8 +124,6 @@ def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
     """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process.
     A model that declares fewer container sizes is timed on the poses of its own sizes
     (bench.accuracy.covered; the cost of a pair hardly depends on its pose)."""
-    from testbed.bench.accuracy import covered
-
     singles, batched = poses(data)
     reference = predictor_cost("improved", singles, batched, repeats)
     drake = drake_point_cost(singles, repeats)
