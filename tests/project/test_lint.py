@@ -1,4 +1,4 @@
-"""Lint: `ruff check` ([tool.ruff] in pyproject.toml) finds nothing in testbed/,
+"""Lint: `ruff check` ([tool.ruff] in pyproject.toml) finds nothing in testbed/, examples/,
 learned_contact/ and tests/; the project's own modules are imported at the module top
 (function-local imports only where ALLOWED says why)."""
 
@@ -22,7 +22,7 @@ def test_ruff_finds_nothing():
     ruff = _ruff()
     if ruff is None:
         pytest.skip("ruff is in the test extra: pip install -e '.[test]' (or pip install ruff==0.17.6)")
-    done = subprocess.run([ruff, "check", "--no-cache", "testbed", "learned_contact", "tests"], cwd=ROOT,
+    done = subprocess.run([ruff, "check", "--no-cache", "testbed", "learned_contact", "tests", "examples"], cwd=ROOT,
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-4000:] + done.stderr[-2000:]
 
