@@ -30,6 +30,7 @@ import os
 import stat
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
@@ -88,7 +89,13 @@ class YamlLimitError(yaml.MarkedYAMLError):
     """Nesting too deep, aliases expanding too far, or a duplicate key (with its position)."""
 
 
-class BoundedYamlMixin:
+if TYPE_CHECKING:  # the mixin's methods call the loader's: checked as its subclass
+    from yaml import SafeLoader as _LoaderBase
+else:
+    _LoaderBase = object
+
+
+class BoundedYamlMixin(_LoaderBase):
     """Put before yaml.SafeLoader (or a subclass) in the bases: `class L(BoundedYamlMixin, yaml.SafeLoader)`.
 
     Tracks, per document, the nesting depth and each node's expanded size (nodes, counting
@@ -99,7 +106,8 @@ class BoundedYamlMixin:
     max_alias_nodes = MAX_YAML_ALIAS_NODES
 
     def compose_document(self):
-        self._depth, self._alias_nodes, self._weights, self._open_anchors = 0, 0, {}, []
+        self._weights: dict = {}  # id(node) -> expanded size
+        self._depth, self._alias_nodes, self._open_anchors = 0, 0, []
         try:
             return super().compose_document()
         finally:

@@ -60,10 +60,10 @@ def sat_axes(R_AB) -> np.ndarray:
     cross[:, 0] = np.stack([zero, -bz, by], axis=-1)
     cross[:, 1] = np.stack([bz, zero, -bx], axis=-1)
     cross[:, 2] = np.stack([-by, bx, zero], axis=-1)
-    cross = cross.reshape(n, 9, 3)
-    norm = np.sqrt(np.einsum("nkj,nkj->nk", cross, cross))[:, :, None]
-    cross = np.where(norm > 1e-6, cross / np.maximum(norm, 1e-12), 0.0)
-    return np.concatenate([np.broadcast_to(np.eye(3), (n, 3, 3)), b, cross], axis=1)
+    flat = cross.reshape(n, 9, 3)  # (n, 9, 3) the 9 edge-edge axes
+    norm = np.sqrt(np.einsum("nkj,nkj->nk", flat, flat))[:, :, None]
+    flat = np.where(norm > 1e-6, flat / np.maximum(norm, 1e-12), 0.0)
+    return np.concatenate([np.broadcast_to(np.eye(3), (n, 3, 3)), b, flat], axis=1)
 
 
 def sat_overlap(p_AB, R_AB, h_A, h_B):
@@ -235,7 +235,7 @@ def _pairwise_kernel(p_W, R_W, h, pairs, slab, max_distance, out):
         out[k] = -least
 
 
-_COMPILED = []
+_COMPILED: list = []
 
 
 def pairwise_signed_distances_fast(p_W, R_W, h, pairs, slab, max_distance) -> np.ndarray:
@@ -289,7 +289,7 @@ class QueryBoxes:
         ).reshape(-1, 2)
         self._keys = [frozenset((ids[a], ids[b])) for a, b in self.pairs.tolist()]
 
-    def poses(self, query):
+    def poses(self, query) -> tuple[np.ndarray, np.ndarray]:
         """World poses of the boxes: p_WG (m, 3) [m], R_WG (m, 3, 3)."""
         X = np.array([query.GetPoseInWorld(gid).GetAsMatrix34() for gid in self.ids]).reshape(-1, 3, 4)
         return X[:, :, 3], X[:, :, :3]
