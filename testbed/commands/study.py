@@ -1,4 +1,4 @@
-"""`testbed study sim|query|stability|defaults`: one study on its own, written to a directory."""
+"""`testbed study sim|query|stability|defaults|scale`: one study on its own, written to a directory."""
 
 from __future__ import annotations
 
@@ -14,16 +14,17 @@ from testbed.records import write_atomic
 DEFAULT_TOSS_DATA = Path(__file__).resolve().parents[1] / "calibration" / "cube_tosses" / "even.npz"
 
 NAME = "study"
-HELP = "one study on its own: sim (time step x model x approximation), query, stability or defaults (contact settings judged over hard cases)"
+HELP = ("one study on its own: sim (time step x model x approximation), query, stability, defaults (contact settings "
+        "judged over hard cases) or scale (what a yard of N containers costs with each contact model)")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("which", choices=["sim", "query", "stability", "defaults"])
+    parser.add_argument("which", choices=["sim", "query", "stability", "defaults", "scale"])
     parser.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
     parser.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
     parser.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
-    parser.add_argument("--workers", type=int, default=2, help="processes of the defaults sweep (default 2)")
+    parser.add_argument("--workers", type=int, default=2, help="processes of the defaults sweep and of scale's --executor local (default 2)")
     sweep = parser.add_argument_group("defaults sweep axes (comma-separated; default: the full grid)")
     sweep.add_argument("--moduli", help="hydroelastic moduli [Pa], e.g. 1e8,1e9")
     sweep.add_argument("--approximations", help="discrete approximations, e.g. sap,similar")
@@ -31,6 +32,18 @@ def add_arguments(parser) -> None:
     sweep.add_argument("--time-steps", help="plant time steps [s], e.g. 1e-3")
     sweep.add_argument("--stiction-tolerances", help="plant stiction tolerances [m/s] (not SAP's), e.g. 1e-4,1e-6")
     sweep.add_argument("--cases", help="cases to run (default all: stress cases, shipped scenes, cube_tosses)")
+    scale = parser.add_argument_group("scale study (testbed/studies/scale.py)")
+    scale.add_argument("--sizes", help="containers per yard, multiples of --tiers (default 4,16,48,96,192; --quick 4,8,16)")
+    scale.add_argument("--tiers", type=int, help="tiers of every yard block (default 4)")
+    scale.add_argument("--duration", type=float, help="[s] simulated per run (default 0.2; --quick 0.03)")
+    scale.add_argument("--big-duration", type=float, help="[s] simulated per run above --big-above containers (default 0.1)")
+    scale.add_argument("--big-above", type=int, help="containers above which runs are --big-duration long (default 96)")
+    scale.add_argument("--models", help="comma-separated, some of hydroelastic,point,learned,mujoco,mujoco_learned (default all)")
+    scale.add_argument("--predictor", help="predictor of both learned loops (default: each engine's own, 'improved')")
+    scale.add_argument("--executor", choices=["sequential", "local", "ray"], default="sequential",
+                       help="where the cells run: sequential (default, in this process: undisturbed timings), local "
+                            "(--workers processes) or ray (validate's executors; cells side by side share the machine)")
+    scale.add_argument("--address", help="Ray cluster address for --executor ray (default: a local Ray started here)")
     sweep.add_argument("--toss-data", default=str(DEFAULT_TOSS_DATA),
                        help="real cube tosses for the toss criterion (default: the shipped even-numbered "
                             "DAIR Lab tosses, testbed/calibration/cube_tosses/even.npz)")
@@ -42,8 +55,11 @@ def run(args) -> int:
         from testbed.calibration.data import load_tosses
 
         load_tosses(args.toss_data)  # checked before anything is written: CalibrationDataError -> exit 2
-    out.mkdir(parents=True, exist_ok=True)
-    {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
+    if args.which == "scale":
+        _scale(args, out)  # makes `out` once its options are checked
+    else:
+        out.mkdir(parents=True, exist_ok=True)
+        {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
     print(f"study output: {out}")
     return 0
 
@@ -127,6 +143,38 @@ def _defaults(args, out: Path) -> None:
     write_atomic(out / "defaults.md", to_markdown("Contact defaults sweep", sections))
     write_atomic(out / "defaults.html", to_html("Contact defaults sweep", sections))
     print((out / "defaults.md").read_text())
+
+
+def _scale(args, out: Path) -> None:
+    """The scale study: its ScaleConfig from the options (--quick: the small grid; a bad value is a
+    ScaleConfigError, exit 2, before anything runs), its cells, its report."""
+    import dataclasses
+
+    from testbed.studies import scale
+    from testbed.validation.executors import map_calls
+
+    given = {}
+    if args.sizes:
+        try:
+            given["sizes"] = tuple(int(x) for x in args.sizes.split(","))
+        except ValueError:
+            raise scale.ScaleConfigError(f"--sizes: expected comma-separated whole numbers, got {args.sizes!r}") from None
+    if args.models:
+        given["models"] = _choices(args.models, "--models", tuple(scale.MODELS), ())
+    for name in ("tiers", "duration", "big_duration", "big_above", "predictor"):
+        if getattr(args, name) is not None:
+            given[name] = getattr(args, name)
+    config = dataclasses.replace(scale.QUICK if args.quick else scale.ScaleConfig(), **given)
+    config.validate()
+    if args.executor == "sequential":
+        study = scale.run_study(config, progress=not args.quiet)
+    else:
+        def cells(fn, items, done):
+            map_calls(fn, items, done, executor=args.executor, workers=args.workers, address=args.address)
+
+        study = scale.run_study(config, map_cells=cells, executor=args.executor)
+    scale.write_report(study, out)
+    print("\n".join(scale.summary_lines(study)))
 
 
 def _floats(text, option: str, default, minimum: float | None = None) -> tuple[float, ...]:

@@ -6,6 +6,8 @@
   `from testbed.studies.query import run_query_study` (a package: pose sets, one
   module per method family, measuring, statistics, rendering).
 - sim, stability: the simulation-level study and the stability matrix (their modules).
+- scale: what a yard of N containers costs with each contact model, and how far each lands
+  from Drake hydroelastic (issue 29; `testbed study scale`).
 
 Optional packages (python-fcl, mujoco, matplotlib) are imported only where used; a
 missing one raises testbed.errors.OptionalDependencyError with the install command.

@@ -98,27 +98,38 @@ def execute(cases: list[Case], run_dir: Path, *, executor: str = "local", worker
     kinds = registry()
     here = [c for c in pending if c.kind in kinds and kinds[c.kind].main_process]
     pooled = [c for c in pending if c not in here]
-    if executor == "local":
-        _execute_local(pooled, workers, done)
-    else:
-        _execute_ray(pooled, address, done)
+    map_calls(run_case, [c.to_dict() for c in pooled], done, executor=executor, workers=workers, address=address)
     for case in here:  # after the pool, alone on the machine: their timings are not disturbed
         done(run_case(case.to_dict()))
     if bar is not None:
         bar.close()
 
 
-def _execute_local(cases, workers, done) -> None:
+def map_calls(fn, items, done, *, executor: str = "local", workers: int = 2, address: str | None = None) -> None:
+    """Calls `fn(item)` for every item and `done(result)` as each result arrives (in any order):
+    executor 'local', a spawn process pool of `workers` (1: in this process, in order), or 'ray',
+    one task of 1 CPU per item on the cluster at `address` (None: a local one, started and
+    stopped here). `fn` is a module-level function (workers import it by name); items and
+    results are picklable. Validate's cases run through it (run_case); so do other studies' cells."""
+    if executor not in EXECUTORS:
+        raise TestbedError(f"--executor: unknown executor {executor!r}; expected one of: {', '.join(EXECUTORS)}")
+    if executor == "local":
+        _execute_local(fn, items, workers, done)
+    else:
+        _execute_ray(fn, items, address, done)
+
+
+def _execute_local(fn, items, workers, done) -> None:
     if workers <= 1:
-        for case in cases:
-            done(run_case(case.to_dict()))
+        for item in items:
+            done(fn(item))
         return
     import concurrent.futures
     import multiprocessing
 
     context = multiprocessing.get_context("spawn")  # no fork of a process holding Drake state
     with concurrent.futures.ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        futures = [pool.submit(run_case, case.to_dict()) for case in cases]
+        futures = [pool.submit(fn, item) for item in items]
         for future in concurrent.futures.as_completed(futures):
             done(future.result())
 
@@ -138,7 +149,7 @@ class RayConnectionError(TestbedError):
                          f"check host:port against what `ray start --head` printed (default port 6379); {hint}")
 
 
-def _execute_ray(cases, address, done) -> None:
+def _execute_ray(fn, items, address, done) -> None:
     try:
         import ray
     except ImportError:
@@ -150,8 +161,8 @@ def _execute_ray(cases, address, done) -> None:
         except (ConnectionError, RuntimeError, ValueError) as e:
             raise RayConnectionError(address, e) from None
     try:
-        remote = ray.remote(num_cpus=1)(run_case)
-        futures = [remote.remote(case.to_dict()) for case in cases]
+        remote = ray.remote(num_cpus=1)(fn)
+        futures = [remote.remote(item) for item in items]
         while futures:
             ready, futures = ray.wait(futures, num_returns=1)
             done(ray.get(ready[0]))
