@@ -49,7 +49,7 @@ def add_arguments(parser) -> None:
 def check_options(args) -> None:
     """Refuses options that do not apply to the chosen engine (TestbedError: exit 2)."""
     chosen = candidates().get(args.engine)
-    if chosen is not None and not chosen.gated and args.predictor is not None:
+    if chosen is not None and not chosen.gated and not getattr(chosen, "learned", False) and args.predictor is not None:
         raise TestbedError(f"--predictor does not apply with --engine {args.engine} ({chosen.label} uses its own "
                            "contact, no predictor)")
     if chosen is not None and not chosen.param_sets and args.params is not None:
@@ -76,12 +76,15 @@ def run(args) -> int:
     if chosen is not None and not chosen.gated:  # another engine against Drake: testbed/engines/comparison.py
         from testbed.engines.comparison import compare_engine, format_engine_figures
 
-        params = args.params or (chosen.param_sets[0] if chosen.param_sets else None)
-        tag = f"{chosen.name}-{params}" if params else chosen.name
+        params = args.predictor or args.params or (chosen.param_sets[0] if chosen.param_sets else None)
+        tag = f"{chosen.name}-{sources.label(params) if args.predictor else params}" if params else chosen.name
         out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{tag}-{timestamp()}"
-        print(format_engine_figures(compare_engine(scenario, chosen.name, params=params, out_dir=out,
-                                                   duration=args.duration, replay=not args.no_replay, source=source)))
+        figures = compare_engine(scenario, chosen.name, params=params, out_dir=out, duration=args.duration,
+                                 replay=not args.no_replay, source=source)
+        print(format_engine_figures(figures))
         print(f"  output: {out}")
+        if getattr(chosen, "learned", False):  # a predictor decides its contact: the closed-loop gates judge it
+            return _judge_learned_engine(figures, out, chosen.name)
         print(f"verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts "
               f"{chosen.label} beside it against the same Drake run)")
         return 0
@@ -109,6 +112,27 @@ def run(args) -> int:
         raise
     print(format_figures(figures, out))
     return figures["exit_status"]
+
+
+def _judge_learned_engine(figures: dict, out, name: str) -> int:
+    """Prints the closed-loop gates' verdict on a learned engine's compare run (its series are
+    written as the learned loop's, testbed/engines/comparison.py) and returns the exit status."""
+    import json
+
+    from testbed.records import write_json
+    from testbed.validation.compare_verdict import judge, verdict_lines
+
+    f = {**figures, "simulated_s_learned": figures[f"simulated_s_{name}"],
+         "drift_m_per_min_learned": figures.get(f"drift_m_per_min_{name}"), "learned_error": figures.get(f"{name}_error"),
+         "wall_per_sim_s_learned": figures[f"wall_per_sim_s_{name}"]}
+    f.update(judge(f, out))
+    path = Path(out) / "compare.json"
+    saved = json.loads(path.read_text())
+    saved.update({k: f[k] for k in ("verdict", "exit_status", "gates", "gates_failed", "gates_not_judged",
+                                    "gates_known_limits", "leaves_truth_at_s", "energy_gain_gated_J", "energy_limit_J")})
+    write_json(path, saved)
+    print("\n".join(verdict_lines(f)))
+    return f["exit_status"]
 
 
 def modulus_line(modulus: float, why: str) -> str:

@@ -2,7 +2,8 @@
 
 Adding an engine = one package here whose `__init__` registers an Engine subclass with
 `register`. Registered: `drake` (the ground truth: its contact models) and `learned` (the
-learned closed loop, a Drake variant) in drake/, `mujoco` in mujoco/. Every package is
+learned closed loop, a Drake variant) in drake/, `mujoco` in mujoco/, `mujoco_learned` (MuJoCo
+stepping the bodies, a predictor deciding container contact) in mujoco_learned/. Every package is
 imported on the registry's first use; none imports its simulator's package until it runs.
 
 Beside the packages: comparison.py (any engine against Drake's truth: `testbed compare

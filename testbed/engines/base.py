@@ -15,7 +15,8 @@ testbed/effects/contact_log.py's `contacts` table: step, time [s], a, b (body in
 a < b, ground = 0), p_W_cop (n, 3) [m], n_W (n, 3) unit a -> b, f_W (n, 3) [N] on b,
 phi (n,) [m] (negative = penetration). `reference` marks Drake, the ground truth every
 other engine is judged against; `gated` marks the run that the closed-loop gates judge
-(the learned loop); `param_sets` names an engine's contact-parameter sets, first the default.
+(the learned loop); `param_sets` names an engine's contact-parameter sets, first the default;
+`learned` marks an engine whose container contact a predictor decides (mujoco_learned).
 """
 
 from __future__ import annotations
@@ -59,6 +60,9 @@ class Engine:
     reference: ClassVar[bool] = False  # the ground truth the others are judged against (Drake)
     gated: ClassVar[bool] = False  # judged by the closed-loop gates (the learned loop)
     param_sets: ClassVar[tuple[str, ...]] = ()  # contact-parameter sets, the default first
+    # a learned predictor decides its container contact (mujoco_learned): compare judges it at the
+    # learned law's modulus by the closed-loop gates, and its params name the predictor
+    learned: ClassVar[bool] = False
 
     def unavailable(self) -> str | None:
         """Why this engine cannot run here (a missing package and its install command), or None."""

@@ -59,6 +59,13 @@ class SatDepth:
         return out
 
 
+def judged_at(candidate, scenario):
+    """The scene an engine is judged on: a learned engine (`learned`: a predictor decides its
+    contact, testbed/engines/mujoco_learned) at the learned law's modulus, as the learned twin
+    run and its Drake truth are; any other engine at the scene's own."""
+    return variants.derive(scenario, variants.modulus(None)) if getattr(candidate, "learned", False) else scenario
+
+
 def engine_variant(scenario, kind: str):
     """The scene's dynamics alone (PHYSICS effects, no learned loop) for Drake's kind
     'truth' (its own contact model) or 'point', at the scene's own contact parameters: the
@@ -151,6 +158,7 @@ def compare_engine(scene, name: str, *, params: str | None = None, out_dir=None,
         source = resolve_scene_path(scene)
         scenario = load_scenario(source)
     candidate = engine(name)
+    scenario = judged_at(candidate, scenario)
     candidate.check(scenario)
     params = params or (candidate.param_sets[0] if candidate.param_sets else None)
     if time_step is not None:
@@ -162,7 +170,8 @@ def compare_engine(scene, name: str, *, params: str | None = None, out_dir=None,
     other = run.trajectory
     drake = drake_runs(scenario, duration, every, source, bare_truth=bare_truth, with_point=with_point)
     truth, drake_contacts = drake["logged"].trajectory, drake["logged"].contacts
-    runs = {"truth": truth, name: other}
+    learned = getattr(candidate, "learned", False)
+    runs = {"truth": truth, "learned" if learned else name: other}  # a learned engine's series as the loop's (its gates)
     walls = {"truth": drake.get("truth", drake["logged"]).summary["wall_per_sim_s"]}
     if with_point:
         runs["point"] = drake["point"].trajectory
@@ -181,10 +190,13 @@ def compare_engine(scene, name: str, *, params: str | None = None, out_dir=None,
     if with_point:
         figures["speedup_vs_point"] = figures["wall_per_sim_s_point"] / figures[f"wall_per_sim_s_{name}"]
     figures[f"{name}_max_penetration_m"] = max_penetration(run.contacts)
+    if learned:  # how often the model was asked (pair-steps), as the learned twin run reports it
+        figures["pair_steps_learned"] = int(other.costs.get("predict_pairs", 0))
+        figures["cost"] = run.summary.get("cost")
     figures.update(contact_figures(drake_contacts, run.contacts, name))
     if out_dir is not None:
         with atomic_directory(out_dir) as tmp:
-            artifacts.write_series(tmp / "trajectories.npz", runs, under_test=name)
+            artifacts.write_series(tmp / "trajectories.npz", runs, under_test="learned" if learned else name)
             artifacts.plot_divergence(tmp / "divergence.png", truth, other, scenario.name,
                                       f"{params} contact parameters", label=candidate.label)
             if replay:
@@ -228,6 +240,7 @@ def engine_table_row(scene, name: str, *, params=None, duration: float | None = 
     "the engine users would pick instead". Raises UnsupportedSceneError."""
     scenario = scene if isinstance(scene, Scenario) else load_scenario(resolve_scene_path(scene))
     candidate = engine(name)
+    scenario = judged_at(candidate, scenario)
     candidate.check(scenario)
     duration = scenario.duration if duration is None else float(duration)
     every = record_every or steps_per_record(scenario.plant.time_step)

@@ -266,29 +266,31 @@ def can_meet(scenario: Scenario) -> np.ndarray:
     return out
 
 
-def contact_pairs(scenario: Scenario, params: str, h: float) -> list[PairParams]:
+def contact_pairs(scenario: Scenario, params: str, h: float, container_contact: bool = True) -> list[PairParams]:
     """The explicit pairs with their parameters: every ground-container pair, and the
-    container pairs that can meet (can_meet); see the module docstring."""
+    container pairs that can meet (can_meet; none when not `container_contact`); see the
+    module docstring."""
     if scenario.effects.contact is None:
         return []
     specs = scenario.containers
     offset = 1 if scenario.ground else 0
     out = [_params(scenario, params, None, spec, 0, j + offset, h) for j, spec in enumerate(specs)
            if scenario.ground and not spec.fixed]
-    meet = can_meet(scenario)
+    meet = can_meet(scenario) if container_contact else np.zeros((len(specs), len(specs)), dtype=bool)
     for i, j in zip(*np.nonzero(np.triu(meet, 1))):
         out.append(_params(scenario, params, specs[i], specs[j], int(i) + offset, int(j) + offset, h))
     return out
 
 
-def geom_parameters(scenario: Scenario, params: str, h: float) -> list:
+def geom_parameters(scenario: Scenario, params: str, h: float, container_contact: bool = True) -> list:
     """Per container (scene order) the parameters its geom carries for the pairs MuJoCo's broad
     phase finds (those contact_pairs does not list): its matched pair with a copy of itself
     face on face (a, b its body index), so that two equal containers stacked get exactly their
     pair's parameters from MuJoCo's mixing (solref, solimp: the average; friction: the larger);
     unequal ones the average of theirs (an approximation, for pairs that meet only after others
-    moved: a toppling stack). A fixed container: MuJoCo's defaults. None without contact."""
-    if scenario.effects.contact is None:
+    moved: a toppling stack). A fixed container: MuJoCo's defaults. None without contact or
+    `container_contact` (the geoms stay out of the broad phase)."""
+    if scenario.effects.contact is None or not container_contact:
         return [None] * len(scenario.containers)
     offset = 1 if scenario.ground else 0
     out = []
@@ -305,16 +307,18 @@ def _fmt(values) -> str:
     return " ".join(repr(float(v)) for v in values)
 
 
-def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: float | None = None) -> Translation:
+def scenario_to_mjcf(scenario: Scenario, *, params: str = "matched", time_step: float | None = None,
+                     container_contact: bool = True) -> Translation:
     """The MJCF text of a scene (see the module docstring); raises UnsupportedSceneError,
-    UnknownChoiceError for an unknown `params`."""
+    UnknownChoiceError for an unknown `params`. container_contact False: MuJoCo's contact
+    for the ground-container pairs only (the learned loop hosted in MuJoCo decides the rest)."""
     if params not in PARAM_SETS:
         raise UnknownChoiceError("MuJoCo contact-parameter set", params, PARAM_SETS)
     check_supported(scenario)
     h = scenario.plant.time_step if time_step is None else float(time_step)
     body_names = ([GROUND_NAME] if scenario.ground else []) + [c.name for c in scenario.containers]
-    pairs = contact_pairs(scenario, params, h)
-    geoms = geom_parameters(scenario, params, h)
+    pairs = contact_pairs(scenario, params, h, container_contact)
+    geoms = geom_parameters(scenario, params, h, container_contact)
     impratio = MATCHED_IMPRATIO if params == "matched" else 1.0
     bodies, qpos, qvel = [], [], []
     for spec, own in zip(scenario.containers, geoms):
@@ -369,10 +373,11 @@ def _geom_contact(own: PairParams | None) -> str:
             f'solref="{_fmt(own.solref)}" solimp="{_fmt(own.solimp)}" ')
 
 
-def build_model(scenario: Scenario, *, params: str = "matched", time_step: float | None = None):
-    """(MjModel, MjData at the initial state, Translation)."""
+def build_model(scenario: Scenario, *, params: str = "matched", time_step: float | None = None,
+                container_contact: bool = True):
+    """(MjModel, MjData at the initial state, Translation); container_contact as scenario_to_mjcf."""
     mj = mujoco_module()
-    translation = scenario_to_mjcf(scenario, params=params, time_step=time_step)
+    translation = scenario_to_mjcf(scenario, params=params, time_step=time_step, container_contact=container_contact)
     model = mj.MjModel.from_xml_string(translation.mjcf)
     data = mj.MjData(model)
     if model.nkey:

@@ -124,6 +124,21 @@ class _ContactReducer:
         return {key: np.concatenate([r[key] for r in self.rows]) for key in self.rows[0]}
 
 
+def steps_table(model, body_ids, free_specs, qpos: np.ndarray, qvel: np.ndarray, step: np.ndarray, h: float) -> dict:
+    """The `steps` table (module docstring) from MuJoCo's free-joint states qpos (k, m, 7)
+    [p, wxyz] and qvel (k, m, 6) [v_W, w_C] of the free bodies body_ids (m,) (free_specs:
+    their ContainerSpecs) recorded at plant steps step (k,), time step h [s]."""
+    p, q = qpos[..., :3], qpos[..., 3:]
+    R = _rotations(q)
+    V = np.concatenate([np.einsum("kmij,kmj->kmi", R, qvel[..., 3:]), qvel[..., :3]], axis=-1)
+    mass = np.array([c.total_mass() for c in free_specs])
+    com_B = np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3)
+    I_B = np.array(model.body_inertia[body_ids]).reshape(-1, 3)  # principal moments at the COM (frame unrotated)
+    kinetic, potential = energies(p, q, V, mass, com_B, I_B)
+    return {"step": step, "time": step * h, "p_WB": p, "q_WB": q, "V_WB": V,
+            "kinetic_energy": kinetic, "potential_energy": potential}
+
+
 def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params: str = "matched",
                     time_step: float | None = None, record: bool = True) -> MujocoRun:
     """Simulates `scenario` in MuJoCo for `duration` [s] (default: the scene's) at `time_step`
@@ -184,16 +199,10 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
     if not record:
         qpos.append(data.qpos[qidx].copy())
         qvel.append(data.qvel[vidx].copy())
-    qpos, qvel = np.array(qpos), np.array(qvel)  # (k, m, 7), (k, m, 6)
-    p, q = qpos[..., :3], qpos[..., 3:]
-    R = _rotations(q)
-    V = np.concatenate([np.einsum("kmij,kmj->kmi", R, qvel[..., 3:]), qvel[..., :3]], axis=-1)
-    mass = np.array([c.total_mass() for c in free])
-    I_B = np.array(model.body_inertia[body_ids]).reshape(-1, 3)  # principal moments at the COM (frame unrotated)
-    kinetic, potential = energies(p, q, V, mass, com_B, I_B)
-    k = np.arange(len(p)) if record else np.array([0, steps_done])
-    steps = {"step": k, "time": k * h, "p_WB": p, "q_WB": q, "V_WB": V,
-             "kinetic_energy": kinetic, "potential_energy": potential}
+    k = np.arange(len(qpos)) if record else np.array([0, steps_done])
+    steps = steps_table(model, body_ids, free, np.array(qpos), np.array(qvel), k, h)
+    qpos, qvel = np.array(qpos), np.array(qvel)
+    kinetic, potential = steps["kinetic_energy"], steps["potential_energy"]
     contacts = reducer.table()
     sim_time = steps_done * h
     energy = kinetic + potential

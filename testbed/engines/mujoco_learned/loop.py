@@ -1,0 +1,350 @@
+"""The learned contact in a real-time engine: MuJoCo steps the bodies, a predictor decides
+container-container contact (issue 29, deliverable 3).
+
+Per step (h = plant.time_step, semi-implicit Euler, MuJoCo's default integrator):
+  1. mj_step1: MuJoCo's position and velocity stages at the step's state (poses xpos/xmat,
+     its own contacts with the quay);
+  2. broad phase: kernels.broad_phase (sort and sweep on the containers' world boxes), then
+     kernels.near_pairs (bounding spheres, face axes, NEAR = 0.05 m): the candidate pairs;
+  3. predictor: ONE batched call, point_A and normal_A in A's frame for every candidate;
+  4. force law: kernels.pair_wrenches (the Winkler foundation normal force over the face
+     overlap, Hunt-Crossley dissipation, the anchored stick friction and torsion: the very
+     kernels of testbed/effects/learned_dynamics, with its config and kappa), wrenches about
+     each body origin C moved to the COM and written to xfrc_applied (plus wind and the
+     crane's ropes);
+  5. mj_step2: MuJoCo's constraint solve (quay contact) and integration.
+The force is explicit (step n's state), as in the Drake-hosted loop, so the same stability
+check applies (LearnedDynamicsEffect refuses a scene whose explicit step is unstable).
+
+What MuJoCo's own contact still does, and why: the quay. Container-quay contact is Drake's
+hydroelastic in the Drake-hosted loop (the learned law covers box pairs only: the predictor
+is trained on container size pairs, not on a box against a half-space); here it is MuJoCo's
+implicit contact with the `matched` parameters (testbed/engines/mujoco/model.py: its static
+penetration and one-step map equal Drake's discrete hydroelastic contact), at the learned
+law's modulus like every container in the loop. It is also what keeps the heaviest loads
+stable: the quay pair carries the whole column, and an implicit solve has no step limit.
+The crane is applied forces (ropes, twistlocks: testbed/engines/mujoco/crane.py), whose
+seated test asks the learned contact as well as MuJoCo's. Container pairs never touch
+MuJoCo's solver: their geoms are out of its broad phase (contype = conaffinity = 0).
+
+The containers run at the learned law's modulus (law_modulus: the scene's
+effects.contact.hydroelastic_modulus, else 1e8 Pa) for the quay as for the law, as the
+Drake-hosted loop does; compare judges it against Drake at that modulus.
+
+Costs (summary['cost'], [s] over the timed steps): mujoco_s (mj_step1 + mj_step2), broad_s
+(state extraction, broad phase, near pairs, gather), predict_s (the predictor's call),
+law_s (force law, anchors, xfrc_applied, wind, crane). Recording is timed apart.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+
+from testbed import variants
+from testbed.engines.base import UnsupportedSceneError
+from testbed.engines.mujoco.crane import CraneRopes
+from testbed.engines.mujoco.model import build_model, mujoco_module
+from testbed.engines.mujoco.run import _ContactReducer, steps_table, wind_force_W
+from testbed.errors import ScenarioError
+from testbed.geometry.boxes import box_box_signed_distance
+
+NEAR = 0.05  # [m] candidate margin, the Drake-hosted loop's (learned_dynamics.effect.NEAR)
+MU_SDF = 0.4  # [-] the models' mu_dynamic, the Drake-hosted loop's default friction (effect.MU_SDF)
+
+
+class UnstableStepError(UnsupportedSceneError):
+    """The explicit contact force would be unstable at the scene's time step (the learned loop's
+    stability check): refused by `check`; a run at such a step (a time-step sweep) ends at once
+    with that as its error instead (refused_run)."""
+
+
+def refused_run(scenario, why: str):
+    """A Trajectory of the initial state alone whose error is `why` (a run that cannot start)."""
+    from testbed.simulation import Trajectory
+
+    free = [c for c in scenario.containers if not c.fixed]
+    p = np.array([[c.pose().translation() for c in free]]).reshape(1, -1, 3)
+    q = np.array([[c.pose().rotation().ToQuaternion().wxyz() for c in free]]).reshape(1, -1, 4)
+    zero = np.zeros(1)
+    return Trajectory(time=zero, p_WB=p, q_WB=q, V_WB=np.zeros((1, len(free), 6)), energy=zero, potential=zero,
+                      wall_s=0.0, simulated_s=0.0, error=why, names=tuple(c.name for c in free))
+
+
+@dataclasses.dataclass
+class Prepared:
+    """A scene made ready for the MuJoCo-hosted loop: `learned` (the scene with the learned
+    loop on, at the law's modulus), `effect` (its checked LearnedDynamicsEffect: predictor,
+    kappa_by_type (T, T) [Pa/m], type_index (m,), stability) and `physics` (what MuJoCo
+    translates: the PHYSICS effects without learned_dynamics)."""
+
+    learned: object
+    effect: object
+    physics: object
+
+
+def prepare(scenario, predictor: str | None, source: object = "<scenario>") -> Prepared:
+    """The scene with the learned loop (predictor None: the scene's, else "improved") at the
+    law's modulus, checked. Raises UnsupportedSceneError (one line: the field and why) for a
+    scene the loop refuses (generic boxes, an explicit step that is unstable, a bad predictor)."""
+    from testbed.engines.mujoco.model import check_supported
+    from testbed.scenario import validate_scenario
+
+    learned = variants.derive(scenario, variants.learned_loop(predictor), variants.modulus(None))
+    try:
+        effect = validate_scenario(learned, source)["learned_dynamics"]
+    except ScenarioError as e:
+        if isinstance(e, UnsupportedSceneError):
+            raise
+        unstable = e.field == "effects.learned_dynamics" and "is unstable at plant.time_step" in e.problem
+        raise (UnstableStepError if unstable else UnsupportedSceneError)(
+            scenario.name, e.field, f"{e.problem} (the MuJoCo-hosted learned loop)") from None
+    physics = variants.derive(learned, variants.physics_only(learned=False))
+    check_supported(physics)
+    return Prepared(learned, effect, physics)
+
+
+@dataclasses.dataclass
+class LearnedRun:
+    """trajectory: testbed.simulation.Trajectory (every record_every steps); contacts: the
+    Engine protocol's rows (quay rows from MuJoCo, container rows from the learned law, every
+    record_every steps); summary: figures and the cost split; mjcf: the translated model."""
+
+    trajectory: object
+    contacts: dict
+    summary: dict
+    mjcf: str
+
+
+class _LearnedCrane(CraneRopes):
+    """The crane's ropes; its load counts as seated when the learned contact touches it too."""
+
+    def __init__(self, touching, *args):
+        super().__init__(*args)
+        self._touching = touching
+
+    def _in_contact(self, data) -> bool:
+        return self._touching() or super()._in_contact(data)
+
+
+class LearnedContact:
+    """The learned contact of the containers of one MuJoCo model (see the module docstring).
+
+    Arrays over the scene's containers (m, scene order): body (m,) MuJoCo body ids, free (m,),
+    half (m, 3) [m] half extents, mass (m,) [kg] (inf if fixed), I_Bo (m, 3, 3) [kg m^2]
+    about the body origin C in the body frame."""
+
+    def __init__(self, prepared: Prepared, model):
+        import testbed.effects.learned_dynamics.kernels as kernels  # numba: loaded when a scene runs
+        from testbed.engines.mujoco_learned import glue
+
+        self.K, self.glue = kernels, glue
+        s, effect = prepared.learned, prepared.effect
+        specs = s.containers
+        self.cfg, self.predictor = effect.config, effect.predictor
+        self.h = s.plant.time_step
+        self.n = len(specs)
+        self.body = np.array([model.body(c.name).id for c in specs], dtype=np.int64)
+        self.free = np.array([not c.fixed for c in specs])
+        self.free_idx = np.flatnonzero(self.free)
+        self.dof = np.array([model.jnt_dofadr[model.body_jntadr[b]] if f else -1 for b, f in zip(self.body, self.free)],
+                            dtype=np.int64)  # (m,) each free joint's first dof: v_WC (3), w_C (3)
+        self.size = np.array([c.container_type().size for c in specs], dtype=float).reshape(-1, 3)
+        self.half = 0.5 * self.size
+        self.radius = np.linalg.norm(self.half, axis=1)
+        self.mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])
+        self.I_Bo = np.tile(np.eye(3), (self.n, 1, 1))
+        for i in self.free_idx:
+            c = np.asarray(specs[i].com_offset, dtype=float)
+            I_com = np.diag(model.body_inertia[self.body[i]])  # principal moments, axes along C's (box inertia)
+            self.I_Bo[i] = I_com + self.mass[i] * (c @ c * np.eye(3) - np.outer(c, c))
+        self.type_index = np.asarray(effect.type_index, dtype=np.int64)
+        self.kappa_tt = np.asarray(effect.kappa_by_type, dtype=float)
+        friction = s.effects.friction
+        self.mu = 0.0 if friction is None else float(
+            self.cfg.mu if self.cfg.mu is not None else (friction.mu if friction.mu is not None else MU_SDF))
+        self.anchors = (np.zeros(0, np.int64), np.zeros((0, 7)))
+        self.last = None  # (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB) of the latest step's candidates
+        self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
+
+    def state(self, data) -> tuple:
+        """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
+        W from MuJoCo's data after mj_step1 (xpos, xmat at the step's state; qvel: v_W, w_C)."""
+        return self.glue.body_state(data.xpos, data.xmat, data.qvel, self.body, self.dof, self.free)
+
+    def touching(self, container: int) -> bool:
+        """Whether container (scene index) was in learned contact at the latest step."""
+        if self.last is None:
+            return False
+        ia, ib, fn = self.last[:3]
+        return bool(np.any(((ia == container) | (ib == container)) & (fn > 0)))
+
+    def apply(self, data) -> None:
+        """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs."""
+        t0 = time.perf_counter()
+        K, c = self.K, self.cfg
+        p, R, w, v = self.state(data)
+        cand_a, cand_b = K.broad_phase(p, R, self.half, self.free, NEAR)
+        keep, p_AB, R_AB = K.near_pairs(p, R, cand_a, cand_b, self.half, self.radius, self.free, NEAR)
+        self.costs[3] += 1
+        if not len(keep):
+            data.xfrc_applied[:] = 0.0
+            self.anchors, self.last = (np.zeros(0, np.int64), np.zeros((0, 7))), None
+            self.costs[0] += time.perf_counter() - t0
+            return
+        ia, ib = cand_a[keep], cand_b[keep]
+        keys, rows = self.anchors
+        kappa, held = K.gather_pairs(ia, ib, self.n, keys, rows, self.type_index, self.kappa_tt)
+        size_A, size_B = self.size[ia], self.size[ib]
+        t1 = time.perf_counter()
+        point_A, normal_A = self.predictor.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
+        t2 = time.perf_counter()
+        out, fn, f_W, p_W, n_W, _, anchors_next, stuck_next = K.pair_wrenches(
+            p, R, w, v, self.mass, self.I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
+            np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self.mu,
+            c.slip_speed, c.stiction, self.h, c.torsional_friction, c.grid,
+            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping)
+        self.anchors = K.pack_anchors(ia, ib, self.n, anchors_next, stuck_next)
+        self.glue.write_wrenches(data.xfrc_applied, out, self.body, self.free, data.xpos, data.xipos)
+        self.last = (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB)
+        t3 = time.perf_counter()
+        self.costs[:3] += (t1 - t0, t2 - t1, t3 - t2)
+        self.costs[4] += 1
+        self.costs[5] += len(keep)
+
+    def rows(self, step: int, t: float, offset: int) -> dict | None:
+        """The contact rows of the latest step's touching container pairs (a, b = container
+        index + offset: body_names indices), phi = minus the separating-axis depth [m]."""
+        if self.last is None:
+            return None
+        ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB = self.last
+        touch = np.flatnonzero(fn > 0)
+        if not len(touch):
+            return None
+        phi = np.empty(len(touch))
+        sA, sB = self.half[ia[touch]], self.half[ib[touch]]
+        for r, k in enumerate(touch):
+            phi[r] = box_box_signed_distance(p_AB[k][None], R_AB[k][None], sA[r], sB[r])[0]
+        k = len(touch)
+        return {"step": np.full(k, step), "time": np.full(k, t), "a": ia[touch] + offset, "b": ib[touch] + offset,
+                "p_W_cop": p_W[touch], "n_W": n_W[touch], "f_W": f_W[touch], "fn": fn[touch], "phi": phi,
+                "n_points": np.ones(k, dtype=int)}
+
+
+def simulate(scenario, *, duration: float | None = None, predictor: str | None = None, record_every: int = 1,
+             source: object = "<scenario>") -> LearnedRun:
+    """Runs `scenario` for `duration` [s] (None: the scene's) with MuJoCo stepping the bodies
+    and `predictor` deciding container contact (see the module docstring); records every
+    `record_every` steps. Raises UnsupportedSceneError before anything runs; a run whose
+    state turns non-finite stops there (trajectory.error set)."""
+    from testbed.engines.mujoco.run import MujocoRun, trajectory_of
+
+    mj = mujoco_module()
+    prepared = prepare(scenario, predictor, source)
+    s = prepared.learned
+    model, data, tr = build_model(prepared.physics, container_contact=False)
+    h = tr.time_step
+    duration = s.duration if duration is None else float(duration)
+    n_steps, every = int(round(duration / h)), max(1, int(record_every))
+    specs = {c.name: c for c in s.containers}
+    free_specs = [specs[n] for n in tr.free_names]
+    body_ids = np.array([model.body(n).id for n in tr.free_names], dtype=int)
+    qadr = np.array([model.jnt_qposadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
+    vadr = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
+    qidx, vidx = qadr[:, None] + np.arange(7), vadr[:, None] + np.arange(6)
+    law = LearnedContact(prepared, model)
+    offset = 1 if s.ground else 0
+    wind = s.effects.wind
+    sizes = [c.container_type().size for c in free_specs]
+    com_B = np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3)
+    crane = None
+    if s.effects.crane is not None:
+        j = tr.free_names.index(s.effects.crane.container)
+        scene_index = [c.name for c in s.containers].index(s.effects.crane.container)
+        crane = _LearnedCrane(lambda: law.touching(scene_index), s.effects.crane, free_specs[j], model,
+                              int(body_ids[j]), model.geom(tr.free_names[j]).id, int(qadr[j]), int(vadr[j]))
+        j_crane = j
+    reducer = _ContactReducer(model, tr.body_names)
+    # compile or load the numba kernels and warm the predictor outside the timed steps
+    mj.mj_step1(model, data)
+    law.apply(data)
+    law.costs[:] = 0.0
+    law.anchors, law.last = (np.zeros(0, np.int64), np.zeros((0, 7))), None
+    if model.nkey:
+        mj.mj_resetDataKeyframe(model, data, 0)
+    else:
+        mj.mj_resetData(model, data)
+    mj.mj_forward(model, data)
+    qpos, qvel, index = [data.qpos[qidx].copy()], [data.qvel[vidx].copy()], [0]
+    mujoco_s, other_s, record_s, steps_done, diverged = 0.0, 0.0, 0.0, 0, False
+    for i in range(n_steps):
+        t0 = time.perf_counter()
+        mj.mj_step1(model, data)
+        t1 = time.perf_counter()
+        law.apply(data)
+        t2 = time.perf_counter()
+        if wind is not None:
+            for k, body in enumerate(body_ids):
+                R = data.xmat[body].reshape(3, 3)
+                f = wind_force_W(wind, sizes[k], R, data.time)
+                data.xfrc_applied[body, :3] += f
+                data.xfrc_applied[body, 3:] += np.cross(-(R @ com_B[k]), f)  # applied at C, not the COM
+        if crane is not None:
+            crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
+        t3 = time.perf_counter()
+        mj.mj_step2(model, data)
+        t4 = time.perf_counter()
+        mujoco_s += (t1 - t0) + (t4 - t3)
+        other_s += t3 - t2
+        steps_done = i + 1
+        if data.warning[int(mj.mjtWarning.mjWARN_BADQACC)].number > 0 or not np.all(np.isfinite(data.qpos)):
+            diverged = True
+            break
+        if (i + 1) % every == 0:  # the rows of state i (Drake's contact_log logs steps every - 1, 2 every - 1, ...)
+            t5 = time.perf_counter()
+            reducer.add(i, i * h, data)
+            learned_rows = law.rows(i, i * h, offset)
+            if learned_rows is not None:
+                reducer.rows.append(learned_rows)
+            record_s += time.perf_counter() - t5
+        if steps_done % every == 0:
+            qpos.append(data.qpos[qidx].copy())
+            qvel.append(data.qvel[vidx].copy())
+            index.append(steps_done)
+    if index[-1] != steps_done:
+        qpos.append(data.qpos[qidx].copy())
+        qvel.append(data.qvel[vidx].copy())
+        index.append(steps_done)
+    broad_s, predict_s, law_s = (float(x) for x in law.costs[:3])
+    law_s += other_s
+    wall = mujoco_s + broad_s + predict_s + law_s
+    steps = steps_table(model, body_ids, free_specs, np.array(qpos), np.array(qvel), np.array(index), h)
+    contacts = reducer.table()
+    sim_time = steps_done * h
+    per_step = 1e3 / max(steps_done, 1)
+    summary = {
+        "scene": s.name, "engine": "mujoco_learned", "version": mj.__version__, "mujoco_version": mj.__version__,
+        "predictor": prepared.effect.config.predictor, "params": prepared.effect.config.predictor,
+        "hydroelastic_modulus_Pa": float(s.effects.contact.hydroelastic_modulus),
+        "time_step_s": h, "duration_s": duration, "steps": steps_done, "diverged": diverged,
+        "wall_time_s": wall, "wall_per_sim_s": wall / sim_time if sim_time > 0 else float("nan"),
+        "real_time_factor": sim_time / wall if wall > 0 else float("inf"), "record_s": record_s,
+        "cost": {"mujoco_s": mujoco_s, "broad_s": broad_s, "predict_s": predict_s, "law_s": law_s,
+                 "ms_per_step": {"mujoco": mujoco_s * per_step, "broad_phase": broad_s * per_step,
+                                 "predictor": predict_s * per_step, "force_law": law_s * per_step,
+                                 "total": wall * per_step},
+                 "predict_calls": int(law.costs[4]), "predict_pairs": int(law.costs[5])},
+        "max_penetration_m": float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0,
+        "stability_max": max((max(r["normal"], r["tilt"]) for r in prepared.effect.stability), default=0.0),
+        "crane_release_time_s": None if crane is None else crane.release_time,
+    }
+    run = MujocoRun(tables={"steps": steps, "contacts": contacts}, summary=summary, body_names=tr.body_names,
+                    free_names=tr.free_names, mjcf=tr.mjcf)
+    trajectory = trajectory_of(run, every)
+    trajectory.error = "the MuJoCo-hosted learned loop's state went non-finite" if diverged else ""
+    trajectory.costs = {"calc_s": broad_s + predict_s + law_s, "predict_s": predict_s, "record_s": record_s,
+                        "calc_calls": steps_done, "predict_calls": int(law.costs[4]),
+                        "predict_pairs": int(law.costs[5])}
+    return LearnedRun(trajectory, contacts, summary, tr.mjcf)
