@@ -86,7 +86,7 @@ class EngineCase(CaseKind):
             if reason is not None:
                 reasons.append(reason)
                 continue
-            out.update({k: v for k, v in row.items() if k != e.name})
+            out.update({k: v for k, v in row.items() if k != e.name and k not in out})  # Drake's figures: the first engine's run
             out.update({"available": True, f"{e.name}_version": e.version(),
                         e.name: {p: {k: f.get(k) for k in keys(e.name)} for p, f in row[e.name].items()}})
         if not out.get("available"):
@@ -104,15 +104,18 @@ class EngineCase(CaseKind):
                        "against Drake's run of the scene's own contact model (the ground truth). Speed = Drake's wall "
                        "time per simulated second / MuJoCo's, measured side by side in one process. Contact point: "
                        "MuJoCo's contacts per body pair reduced to the force-weighted centroid, against Drake's centre "
-                       "of pressure in the contact plane.")]
+                       "of pressure in the contact plane. MuJoCo + learned: MuJoCo steps the bodies and the shipped "
+                       "predictor decides container-container contact with the learned loop's force law "
+                       "(testbed/engines/mujoco_learned), judged against Drake at the learned law's modulus.")]
         if ran:
             blocks.append(Text(summary(ran)))
             blocks.append(table(
-                ["scene", "MuJoCo parameters", "ran to [s]", "MuJoCo wall / sim s [ms]", "x vs hydroelastic",
+                ["scene", "engine (parameters)", "ran to [s]", "wall / sim s [ms]", "x vs hydroelastic",
                  "x vs point", "position err max [mm]", "final position err [mm]", "final angle err [deg]",
                  "max penetration [mm]", "energy gain [J]", "contact point err median [mm]", "p95 [mm]",
                  "normal err max [deg]", "diverged"],
-                [_row(s, e.name, p, f) for s in ran for e in alternatives() for p, f in s.get(e.name, {}).items()]))
+                [_row(s, e.name, f"{e.label} ({p})", f) for s in ran for e in alternatives()
+                 for p, f in s.get(e.name, {}).items()]))
         missing = [s for s in results if not s.get("available")]
         if missing:
             blocks.append(Text("Unavailable: " + "; ".join(f"{s['scene']} ({s['reason']})" for s in missing)))
