@@ -1,6 +1,7 @@
 """Scale study (testbed.studies.scale, `testbed study scale`): yard layouts, the growth fit,
 errors against the reference, a tiny run of every model, the report, the executors and the
-command's one-line errors. Never asserts absolute times (2 shared cores)."""
+command's one-line errors; the bench's yard budget (testbed.bench.yard_budget). Never asserts
+absolute times (2 shared cores)."""
 
 import dataclasses
 import functools
@@ -12,7 +13,9 @@ import pytest
 
 pytest.importorskip("matplotlib", reason="pip install -e '.[study]'")
 
+from testbed.bench import yard_budget  # noqa: E402
 from testbed.cli import main  # noqa: E402
+from testbed.document import to_markdown  # noqa: E402
 from testbed.engines import engines  # noqa: E402
 from testbed.scenario import load_scenario  # noqa: E402
 from testbed.studies import scale  # noqa: E402
@@ -179,3 +182,36 @@ def test_the_command_writes_the_report(tmp_path, capsys):
                  "--out", str(out)]) == 0
     assert (out / "scale.md").is_file() and (out / "scale_cost.png").is_file()
     assert "Drake point" in capsys.readouterr().out
+
+
+# ----------------------------------------------------------------------------- the bench's yard budget
+
+
+def test_budget_arithmetic():
+    assert yard_budget.pairs_within(1e-3, 1e-4, 1e-6) == 900
+    assert yard_budget.pairs_within(1e-4, 2e-4, 1e-6) == 0  # the fixed cost alone overruns the step
+    a, b = yard_budget.fit_call_cost([1, 8, 32, 128], [5e-6 + 2e-6 * k for k in (1, 8, 32, 128)])
+    assert a == pytest.approx(5e-6) and b == pytest.approx(2e-6)
+    p, R, sA, sB = yard_budget.stacking_poses(50)
+    assert p.shape == (50, 3) and R.shape == (50, 3, 3) and sA.shape == sB.shape == (50, 3)
+    assert np.allclose(R @ np.swapaxes(R, 1, 2), np.eye(3), atol=1e-12)
+    assert np.all(p[:, 2] <= sA[:, 2]) and np.all(p[:, 2] >= sA[:, 2] - 2e-3)  # B rests on A, slightly overlapping
+
+
+def test_budget_of_a_predictor_beside_a_given_host_step():
+    host = {"model": "given", "n": 96, "host_step_s": 4e-4, "learned_system_s": 1e-4, "pairs_per_step": 72.0}
+    settings = yard_budget.BudgetSettings(batch_sizes=(1, 16, 64), repeats=1, host=host)
+    budget = yard_budget.yard_budget(["paper"], settings)
+    entry = budget["predictors"]["paper"]
+    assert len(entry["call_s"]) == 3 and entry["per_pair_s"] > 0
+    assert entry["pairs_within_step"] == yard_budget.pairs_within(6e-4, entry["fixed_s"], entry["per_pair_s"])
+    assert entry["pairs_beside_loop"] == yard_budget.pairs_within(5e-4, entry["fixed_s"], entry["per_pair_s"])
+    assert entry["pairs_beside_loop"] <= entry["pairs_within_step"]
+    md = to_markdown("bench", [yard_budget.budget_section(budget)])
+    assert "Yard budget" in md and "| paper |" in md
+
+
+def test_host_step_is_measured_on_a_yard():
+    host = yard_budget.host_step(host_size=4, duration=0.01)
+    assert host["model"] in yard_budget.HOST_MODELS and host["n"] == 4
+    assert host["host_step_s"] > 0 and host["learned_system_s"] >= 0 and host["pairs_per_step"] == pytest.approx(3.0)

@@ -1,0 +1,157 @@
+"""The bench's yard budget (issue 29): how many container pairs each predictor answers within
+one real-time step, beside the host engine's own step.
+
+A crane simulator's loop steps every h = 1 ms. That step holds the host engine's own step
+(integrating the containers, its own contact with the quay) and the learned contact's, whose
+predictor is called once per step on every pair in contact (one batched call). The call's wall
+time is measured at several batch sizes k (the best of `repeats` rounds each, stacked 40 ft
+poses: the cost of a pair hardly depends on its pose) and fitted as t(k) = a + b k (least
+squares): a [s] the call's fixed cost, b [s] per pair. The budget is the largest k with
+host + a + b k <= h:
+
+  pairs_within_step   beside the host's own step alone
+  pairs_beside_loop   beside the host's step and the rest of the learned system's work per step
+                      (state, broad phase, force law, forces), as measured with the host
+
+The host's step is measured on a yard of `host_size` containers (default 96, the shipped
+yard_block's 4 x 6 x 4) by testbed.studies.scale's cell of the MuJoCo-hosted learned loop
+(its 'engine_step': MuJoCo's integration and its quay contact) when that engine is
+registered, else of the Drake-hosted one (Drake's step); or given by the caller.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from learned_contact.sources import label, load_predictor
+from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.document import Section, Text, table
+from testbed.geometry.rotations import rotation_from_rpy
+from testbed.studies.scale import ScaleConfig, run_cell, tasks
+
+BATCH_SIZES = (1, 8, 32, 128, 512)  # pairs per call
+STEP_S = 1e-3  # [s] the real-time step
+HOST_SIZE = 96  # containers of the yard the host's step is measured on
+HOST_MODELS = ("mujoco_learned", "learned")  # scale-study models tried for the host's step, in order
+
+
+def stacking_poses(k: int, type_name: str = "1AA", seed: int = 0):
+    """(p_AB (k, 3) [m], R_AB (k, 3, 3), size_A (k, 3), size_B (k, 3) [m]): box B of `type_name`
+    resting on box A of the same type, offset up to 0.3 m, overlap 0 to 2 mm, tilt up to 0.01 rad."""
+    rng = np.random.default_rng(seed)
+    size = np.asarray(CONTAINER_TYPES[type_name].size, float)
+    p = np.column_stack([rng.uniform(-0.3, 0.3, k), rng.uniform(-0.3, 0.3, k), size[2] - rng.uniform(0.0, 2e-3, k)])
+    R = rotation_from_rpy(np.column_stack([rng.uniform(-0.01, 0.01, (k, 2)), np.zeros(k)]))
+    sizes = np.tile(size, (k, 1))
+    return p, R, sizes, sizes.copy()
+
+
+def call_costs(predictor, batch_sizes=BATCH_SIZES, repeats: int = 3, type_name: str = "1AA") -> list[float]:
+    """[s] wall time of one batched predict call per batch size (best of `repeats` rounds;
+    each round repeats small calls until it lasts about 5 ms, for the timer's resolution)."""
+    p, R, sA, sB = stacking_poses(max(batch_sizes), type_name)
+    out = []
+    for k in batch_sizes:
+        args = (p[:k], R[:k], sA[:k], sB[:k])
+        predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])  # warm
+        t0 = time.perf_counter()
+        predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])
+        calls = max(1, min(1000, int(5e-3 / max(time.perf_counter() - t0, 1e-7))))
+        best = math.inf
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(calls):
+                predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])
+            best = min(best, (time.perf_counter() - t0) / calls)
+        out.append(best)
+    return out
+
+
+def fit_call_cost(batch_sizes, seconds) -> tuple[float, float]:
+    """(a fixed [s], b per pair [s]) of t(k) = a + b k, least squares; a and b at least 0."""
+    b, a = np.polyfit(np.asarray(batch_sizes, float), np.asarray(seconds, float), 1)
+    return max(0.0, float(a)), max(float(b), 1e-12)
+
+
+def pairs_within(budget_s: float, fixed_s: float, per_pair_s: float) -> int:
+    """The most pairs k with fixed_s + per_pair_s k <= budget_s (0 when the budget is spent)."""
+    return max(0, int(math.floor((budget_s - fixed_s) / per_pair_s))) if budget_s > fixed_s else 0
+
+
+def host_step(host_size: int = HOST_SIZE, duration: float = 0.05, step_s: float = STEP_S) -> dict:
+    """The host engine's own step on a host_size-container yard (module doc): {'model' (the
+    scale study's), 'n', 'host_step_s', 'learned_system_s' [s per step], 'pairs_per_step'};
+    'host_step_s' NaN and 'why' set when neither learned loop ran."""
+    config = ScaleConfig(sizes=(host_size,), duration=duration, big_duration=duration, time_step=step_s,
+                         models=HOST_MODELS, repeats=2, repeat_below_s=1.0)
+    why = []
+    for task in tasks(config):
+        row = run_cell(task)
+        if row["status"] == "ok":
+            split = row["split_us"]
+            return {"model": row["model"], "n": host_size, "host_step_s": 1e-6 * split["engine_step"],
+                    "learned_system_s": 1e-6 * split["learned_system"], "pairs_per_step": row["pairs_per_step"]}
+        why.append(f"{row['model']}: {row['status']} ({row['why']})")
+    return {"model": "", "n": host_size, "host_step_s": float("nan"), "learned_system_s": float("nan"),
+            "pairs_per_step": float("nan"), "why": "; ".join(why)}
+
+
+@dataclasses.dataclass(frozen=True)
+class BudgetSettings:
+    """step_s [s]: the real-time step; batch_sizes: pairs per timed call; repeats: rounds per
+    size; host: a host_step() dict to use (None: measured here on a host_size-container yard)."""
+
+    step_s: float = STEP_S
+    batch_sizes: tuple[int, ...] = BATCH_SIZES
+    repeats: int = 3
+    host_size: int = HOST_SIZE
+    host: dict | None = None
+
+
+def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
+    """{'step_s', 'host' (host_step's dict), 'predictors': {spec: {'label', 'batch_sizes',
+    'call_s' (per size), 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'}}}
+    for each predictor in `specs` (learned_contact.sources strings), measured side by side."""
+    host = settings.host if settings.host is not None else host_step(settings.host_size, step_s=settings.step_s)
+    out = {}
+    for spec in specs:
+        pred = load_predictor(spec)
+        type_name = "1AA"
+        supported = np.asarray(pred.supported_sizes, float).reshape(-1, 3)
+        if np.abs(supported - np.asarray(CONTAINER_TYPES[type_name].size)).max(axis=1).min() > 1e-3:
+            type_name = next((n for n, t in CONTAINER_TYPES.items()
+                              if np.abs(supported - np.asarray(t.size)).max(axis=1).min() <= 1e-3), type_name)
+        seconds = call_costs(pred, settings.batch_sizes, settings.repeats, type_name)
+        fixed, per_pair = fit_call_cost(settings.batch_sizes, seconds)
+        spare = settings.step_s - host["host_step_s"]
+        out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "call_s": seconds,
+                     "fixed_s": fixed, "per_pair_s": per_pair, "container_type": type_name,
+                     "pairs_within_step": pairs_within(spare, fixed, per_pair) if math.isfinite(spare) else None,
+                     "pairs_beside_loop": (pairs_within(spare - host["learned_system_s"], fixed, per_pair)
+                                           if math.isfinite(spare) else None)}
+    return {"step_s": settings.step_s, "host": host, "predictors": out}
+
+
+def budget_section(budget: dict, order: int = 45) -> Section:
+    """The bench report's 'Yard budget' section: the host's step and one row per predictor."""
+    host, h = budget["host"], budget["step_s"]
+    where = (f"the host's own step: {host['host_step_s'] * 1e6:.0f} us per step on a {host['n']}-container yard "
+             f"(scale study's {host['model']} run; the learned system's other work {host['learned_system_s'] * 1e6:.0f} us "
+             f"per step at {host['pairs_per_step']:.0f} pairs)" if math.isfinite(host["host_step_s"])
+             else f"the host's step could not be measured ({host.get('why', '')}): no budget")
+    key = Text(f"How many container pairs each predictor answers within a {h * 1e3:g} ms step, beside {where}. "
+               "One batched call per step, its wall time fitted as fixed + per pair x pairs over batch sizes "
+               f"{', '.join(map(str, next(iter(budget['predictors'].values()))['batch_sizes'])) if budget['predictors'] else '-'}.")
+
+    def n(v):
+        return "-" if v is None else str(v)
+
+    rows = [[p["label"], f"{p['fixed_s'] * 1e6:.1f}", f"{p['per_pair_s'] * 1e6:.3f}", n(p["pairs_within_step"]),
+             n(p["pairs_beside_loop"])] for p in budget["predictors"].values()]
+    return Section("Yard budget", [key, table(["predictor", "fixed cost per call [us]", "per pair [us]",
+                                               "pairs within the step beside the host",
+                                               "pairs beside the host and the learned system"], rows)], order=order)
