@@ -314,6 +314,50 @@ def _f(value, spec: str, scale: float = 1.0) -> str:
     return "-" if value is None or not math.isfinite(value) else format(value * scale, spec)
 
 
+TARGET_SIZES = (16, 96)  # the issue's exponent range [containers]
+TARGET_EXPONENT = 1.2  # the learned loops' per-step growth from 16 to 96 containers, at most
+TARGET_N = 96  # the yard of the real-time targets
+TARGET_REAL_TIME = 2.0  # the MuJoCo-hosted learned loop's real-time factor there, at least
+TARGET_VS_POINT = 10.0  # ... and its speed-up over Drake point contact there, at least
+TARGET_POSITION_M, TARGET_ANGLE_DEG = 0.02, 0.5  # ... within these final errors against Drake hydroelastic
+
+
+def targets(study: dict) -> list[dict]:
+    """Issue 29's cost targets as measured in this study: [{'target', 'measured', 'met': True |
+    False | None (not measured: a size or model missing)}]."""
+    rows = {(r["n"], r["model"]): r for r in study["rows"] if r["status"] == "ok"}
+    lo, hi = TARGET_SIZES
+    out = []
+    for m in ("learned", "mujoco_learned"):
+        fit = growth_fits([r for r in study["rows"] if lo <= r["n"] <= hi], (m,), lo)[m]
+        ok = math.isfinite(fit["exponent"]) and min(fit["sizes"]) == lo and max(fit["sizes"]) == hi
+        out.append({"target": f"{LABELS[m]}: per-step growth exponent from N={lo} to {hi} <= {TARGET_EXPONENT:g}",
+                    "measured": f"{fit['exponent']:.2f}" if ok else "not measured",
+                    "met": (fit["exponent"] <= TARGET_EXPONENT) if ok else None})
+    ml, pt = rows.get((TARGET_N, "mujoco_learned")), rows.get((TARGET_N, "point"))
+    out.append({"target": f"{LABELS['mujoco_learned']} at N={TARGET_N}: >= {TARGET_REAL_TIME:g}x real time",
+                "measured": f"{ml['real_time_factor']:.2f}x" if ml else "not measured",
+                "met": (ml["real_time_factor"] >= TARGET_REAL_TIME) if ml else None})
+    out.append({"target": f"{LABELS['mujoco_learned']} at N={TARGET_N}: >= {TARGET_VS_POINT:g}x faster than Drake point",
+                "measured": f"{pt['us_per_step'] / ml['us_per_step']:.1f}x" if ml and pt else "not measured",
+                "met": (pt["us_per_step"] / ml["us_per_step"] >= TARGET_VS_POINT) if ml and pt else None})
+    ok = ml is not None and math.isfinite(ml["final_position_error_m"])
+    out.append({"target": f"{LABELS['mujoco_learned']} at N={TARGET_N}: final position <= {TARGET_POSITION_M * 100:g} cm, "
+                          f"angle <= {TARGET_ANGLE_DEG:g} deg from Drake hydroelastic",
+                "measured": f"{ml['final_position_error_m'] * 1e3:.2f} mm, {ml['final_angle_error_deg']:.3f} deg" if ok else "not measured",
+                "met": (ml["final_position_error_m"] <= TARGET_POSITION_M and ml["final_angle_error_deg"] <= TARGET_ANGLE_DEG)
+                if ok else None})
+    both = sorted(n for (n, m) in rows if m == "learned" and (n, "point") in rows)
+    slower = [n for n in both if rows[n, "learned"]["us_per_step"] > rows[n, "point"]["us_per_step"]]
+    out.append({"target": f"{LABELS['learned']}: no slower than Drake point at any size",
+                "measured": ("slower at N = " + ", ".join(f"{n} ({rows[n, 'learned']['us_per_step'] / rows[n, 'point']['us_per_step']:.2f}x)"
+                                                          for n in slower)) if slower else
+                            (f"at most {max(rows[n, 'learned']['us_per_step'] / rows[n, 'point']['us_per_step'] for n in both):.2f}x point's "
+                             "cost per step" if both else "not measured"),
+                "met": (not slower) if both else None})
+    return out
+
+
 def report_sections(study: dict) -> list[Section]:
     """The study as document sections: key, the growth summary, the chart, the full table."""
     config, rows, fits = _config(study["config"]), study["rows"], study["fits"]
@@ -361,6 +405,11 @@ def report_sections(study: dict) -> list[Section]:
         Section("What a yard of N containers costs", [Text(key), Text(runs), table(
             ["model", f"growth exponent (N >= {config.fit_from})", "per step at the largest N", "real-time factor there",
              "largest N in real time", "final position error there [mm]", "not ok"], summary)], order=10),
+        Section("Targets (issue 29)", [Text("Measured in this run, on this machine (timings are ratios within one run: "
+                                            "other work on a shared machine slows every cell)."),
+                                       table(["target", "measured", "met"],
+                                             [[x["target"], x["measured"], {True: "yes", False: "NO", None: "-"}[x["met"]]]
+                                              for x in targets(study)])], order=15),
         Section("Cost per step against N", [Figure("scale_cost.png", "cost per step against yard size, log-log",
                                                    cost_chart(rows, fits, config))], order=20),
         Section("Every cell", [table(["N", "rows x bays x tiers", "model", "simulated [s]", "wall / sim s [s]",

@@ -94,6 +94,27 @@ def test_errors_are_against_the_reference_of_the_same_size():
     assert all("p_final" not in r and "q_final" not in r for r in out)
 
 
+def test_targets_read_the_issue_s_figures():
+    def row(n, model, us, rtf=1.0, pos=0.0, ang=0.0):
+        return {"n": n, "model": model, "status": "ok", "us_per_step": us, "real_time_factor": rtf,
+                "final_position_error_m": pos, "final_angle_error_deg": ang}
+
+    rows = [row(n, "learned", 10.0 * n) for n in (16, 48, 96)] + [row(192, "learned", 1e9)]  # 192: outside 16-96
+    rows += [row(n, "point", 5.0 * n) for n in (16, 96)]
+    rows += [row(16, "mujoco_learned", 20.0), row(96, "mujoco_learned", 40.0, rtf=2.5, pos=0.03, ang=0.1)]
+    out = {x["target"]: x for x in scale.targets({"rows": rows})}
+    learned = next(x for k, x in out.items() if k.startswith("learned loop (in Drake): per-step growth"))
+    assert learned["measured"] == "1.00" and learned["met"] is True
+    hosted = next(x for k, x in out.items() if k.startswith("learned loop (in MuJoCo): per-step growth"))
+    assert hosted["measured"] == "0.39" and hosted["met"] is True
+    assert next(x for k, x in out.items() if "real time" in k)["met"] is True
+    assert next(x for k, x in out.items() if "faster than Drake point" in k)["measured"] == "12.0x"
+    assert next(x for k, x in out.items() if "final position" in k)["met"] is False  # 3 cm
+    slower = next(x for k, x in out.items() if "no slower" in k)
+    assert slower["met"] is False and slower["measured"].startswith("slower at N = 16 (2.00x), 96")
+    assert all(x["met"] is None for x in scale.targets({"rows": []}))
+
+
 def test_every_model_runs_a_tiny_yard(tiny_study):
     rows = tiny_study["rows"]
     assert [(r["n"], r["model"]) for r in rows] == [(n, m) for n in TINY.sizes for m in TINY.models]
