@@ -22,7 +22,7 @@ import numpy as np
 from learned_contact import limits
 from learned_contact.errors import WeightsError
 from learned_contact.labels import _pair_scene, _query
-from learned_contact.sources import load_predictor
+from learned_contact.sources import DEFAULT, load_predictor
 from testbed.bench.accuracy import covered
 from testbed.bodies.containers import CONTAINER_TYPES
 
@@ -125,13 +125,13 @@ def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
     A model that declares fewer container sizes is timed on the poses of its own sizes
     (bench.accuracy.covered; the cost of a pair hardly depends on its pose)."""
     singles, batched = poses(data)
-    reference = predictor_cost("improved", singles, batched, repeats)
+    reference = predictor_cost(DEFAULT, singles, batched, repeats)
     drake = drake_point_cost(singles, repeats)
     out = {}
     for spec in specs:
         own, counts = covered(load_predictor(spec), {k: data[k] for k in ("stacking", "general")})
         mine = (singles, batched) if all(kept == of for kept, of in counts.values()) else poses(own)
-        c = reference if spec == "improved" else predictor_cost(spec, *mine, repeats)
+        c = reference if spec == DEFAULT else predictor_cost(spec, *mine, repeats)
         out[spec] = {**c,
                      "single_vs_drake_point": c["single_s_per_pair"] / drake,
                      "batched_vs_drake_point": c["batched_s_per_pair"] / drake,

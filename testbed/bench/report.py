@@ -9,8 +9,8 @@ import math
 from pathlib import Path
 
 from testbed.document import Bullets, Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
+from testbed.gates.closed_loop import DISCRIMINATION
 from testbed.records import atomic_directory
-from testbed.validation.cases.closed_loop import DISCRIMINATION
 
 
 def _n(value, scale=1.0, fmt=".3g") -> str:

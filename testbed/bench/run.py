@@ -23,6 +23,7 @@ from testbed.bench.cost import cost_table
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop, open_loop
 from testbed.errors import TestbedError
+from testbed.gates import is_known_limit
 from testbed.scenario import load_scenario
 
 SCHEMA = "testbed.bench/1"
@@ -32,15 +33,12 @@ DEFAULT_PREDICTORS = SHIPPED_NAMES
 N_POSES = 400
 
 
-KNOWN = "(known limit)"  # the suffix of a gate held only within a pinned band (its target is not met)
-
-
 def known_limits(entry: dict) -> list[str]:
     """The gates this predictor passes only within a pinned known-limit band (accuracy
     gates by name, closed-loop ones as 'scene: gate'): targets it does not meet."""
-    out = [g["name"] for g in entry["accuracy"]["gates"] if g["passed"] and g["name"].endswith(KNOWN)]
+    out = [g["name"] for g in entry["accuracy"]["gates"] if g["passed"] and is_known_limit(g)]
     return out + [f"{s}: {g['name']}" for s, f in entry["closed_loop"].items() for g in f["gates"]
-                  if g["passed"] and g["name"].endswith(KNOWN)]
+                  if g["passed"] and is_known_limit(g)]
 
 
 def judged(specs) -> list[str]:

@@ -7,7 +7,7 @@
 - Closed loop: the predictor drives the container-container contact (`learned_dynamics`)
   from the same initial state as Drake's hydroelastic truth and point contact, one truth
   run shared by every predictor (testbed.compare.compare_predictors); the closed-loop
-  section's gates (testbed.validation.cases.closed_loop) judge each predictor alike.
+  section's gates (testbed.gates.closed_loop) judge each predictor alike.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from __future__ import annotations
 import tempfile
 
 from testbed.compare import compare_predictors
+from testbed.gates.closed_loop import DEFAULT_SCENES, case_result, judge
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario
-from testbed.validation.cases.closed_loop import DEFAULT_SCENES, ENERGY_FRACTION, GATED, KEYS, RESTING_SCENES, ClosedLoopCase, series_figures
 
 OPEN_SCENES = (("two_stack", 1.0), ("five_stack", 1.0), ("bridge", 1.0), ("nine_mixed_stack", 1.0),
                ("crane_misaligned", 3.0))
@@ -39,23 +39,16 @@ def open_loop(spec: str, scene: str, duration: float) -> dict:
 
 
 def closed_loop(specs: list[str], scene: str, duration: float) -> dict:
-    """{"scene", ..., "predictors": {spec: figures + "gates" + "passed"}} for one scene."""
+    """{"scene", ..., "predictors": {spec: figures + "gates" + "passed"}} for one scene: every
+    predictor against one truth run, judged by testbed.gates.closed_loop."""
     with tempfile.TemporaryDirectory(prefix="bench-closed-") as tmp:
         dirs = [f"{tmp}/{i}" for i in range(len(specs))]
         figures = compare_predictors(scene, list(specs), out_dirs=dirs, duration=duration, with_point=True,
                                      replay=False)
-        per = {}
-        for spec, f, d in zip(specs, figures, dirs):
-            per[spec] = {k: f.get(k) for k in KEYS}
-            per[spec].update(series_figures(d))
-    drop = figures[0]["potential_drop_max_J"]
-    result = {"scene": scene, "duration_s": float(duration), "time_step_s": figures[0]["time_step_s"],
-              "resting": scene in RESTING_SCENES, "largest_potential_drop_J": drop,
-              "energy_limit_J": ENERGY_FRACTION * drop}
-    kind = ClosedLoopCase()
-    for f in per.values():
-        gates = kind.gates({"id": f"bench-{scene}", "result": {**result, "predictors": {GATED: f}}})
-        f["gates"] = [{"name": g.name.split(": ", 2)[-1], "passed": bool(g.passed), "value": g.value,
-                       "threshold": g.threshold, "unit": g.unit} for g in gates]
+        result = case_result(scene, duration, list(zip(specs, figures, dirs)))
+    for f in result["predictors"].values():
+        gates = judge(result, f, "")
+        f["gates"] = [{"name": g.name, "passed": bool(g.passed), "value": g.value, "threshold": g.threshold,
+                       "unit": g.unit, **({"known_limit": True} if g.known_limit is not None else {})} for g in gates]
         f["passed"] = all(g.passed for g in gates)
-    return {**result, "predictors": per}
+    return result

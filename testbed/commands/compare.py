@@ -89,7 +89,7 @@ def run(args) -> int:
               f"{chosen.label} beside it against the same Drake run)")
         return 0
     declared = scenario.effects.learned_dynamics
-    predictor = args.predictor or (declared.predictor if declared is not None else "improved")
+    predictor = args.predictor or (declared.predictor if declared is not None else sources.DEFAULT)
     label = sources.label(predictor) + ("-all" if args.engine == "all" else "")
     out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
     verdict = judge

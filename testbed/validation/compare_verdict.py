@@ -1,9 +1,9 @@
 """`testbed compare`'s verdict: the closed-loop gates of `testbed validate` on one twin run.
 
-The gates are ClosedLoopCase.gates (testbed/validation/cases/closed_loop.py): the same
-Gate logic, thresholds and pinned KNOWN_LIMITS, judged on the case result that
-`case_result` builds from the twin run's figures and trajectories.npz, whatever predictor
-ran in the loop (validate gates only "improved"; compare judges the one it ran).
+The gates are testbed.gates.closed_loop's, as validate judges them: the same thresholds
+and pinned known limits, judged on the scene result that `case_result` builds from the twin
+run's figures and trajectories.npz, whatever predictor ran in the loop (validate gates only
+the shipped default; compare judges the one it ran).
 
 compare.json `verdict`, and the exit status `testbed compare` returns (`exit_status`):
   DIVERGED    the learned run blew up (testbed/compare/metrics.py: the run failed, its
@@ -20,16 +20,8 @@ The resting-drift gate is judged only on the resting scenes run >= MIN_DRIFT_DUR
 
 from __future__ import annotations
 
-import dataclasses
-
-from testbed.validation.cases.closed_loop import (
-    GATED,
-    MIN_DRIFT_DURATION_S,
-    RESTING_SCENES,
-    ClosedLoopCase,
-    case_result,
-)
-from testbed.validation.gates import format_value
+from testbed.gates import format_value
+from testbed.gates.closed_loop import MIN_DRIFT_DURATION_S, RESTING_SCENES, case_result, judge as closed_loop_gates
 
 PASS, FAIL, DIVERGED, NOT_JUDGED = "PASS", "FAIL", "DIVERGED", "NOT JUDGED"
 EXIT_STATUS = {PASS: 0, NOT_JUDGED: 0, FAIL: 3, DIVERGED: 3}  # 3: a gate failed, as `testbed validate`
@@ -43,24 +35,22 @@ def judge(figures: dict, directory, runs=None) -> dict:
     gates_failed [names], gates_known_limits [names of gates that held only within a pinned
     known limit's band], leaves_truth_at_s [s] (first record 2 cm from the truth; None:
     never), energy_gain_gated_J and energy_limit_J [J]."""
-    s = case_result(figures["scene"], figures["duration_s"], [(GATED, figures, directory)])
-    prefix = f"{s['scene']}: {GATED}: "
-    gates = [dataclasses.replace(g, name=g.name[len(prefix):])
-             for g in ClosedLoopCase().gates({"id": s["scene"], "result": s})]
+    s = case_result(figures["scene"], figures["duration_s"], [("run", figures, directory)])
+    gates = closed_loop_gates(s, s["predictors"]["run"], "")
     not_judged = {}
     if not s["resting"]:
         not_judged["resting drift"] = f"not a scene that ends at rest; those are {', '.join(RESTING_SCENES)}"
     elif s["duration_s"] < MIN_DRIFT_DURATION_S:
         not_judged["resting drift"] = f"run shorter than {MIN_DRIFT_DURATION_S:g} s"
     failed = [g.name for g in gates if not g.passed]
-    pinned = [g.name for g in gates if g.passed and g.name.endswith("(known limit)")]
+    pinned = [g.name for g in gates if g.passed and g.known_limit is not None]
     if figures.get("pair_steps_learned", 0) == 0:
         verdict = NOT_JUDGED
     elif figures["diverged"]:
         verdict = DIVERGED
     else:
         verdict = FAIL if failed else PASS
-    f = s["predictors"][GATED]
+    f = s["predictors"]["run"]
     return {"verdict": verdict, "exit_status": EXIT_STATUS[verdict], "gates": [g.to_dict() for g in gates],
             "gates_not_judged": not_judged, "gates_failed": failed, "gates_known_limits": pinned,
             "leaves_truth_at_s": f["leaves_truth_at_s"],
@@ -128,7 +118,7 @@ def verdict_lines(f: dict) -> list[str]:
                 "(its position error of 0 is no score); `testbed scenes` marks the scenes with container-container "
                 "contact",
                 f"verdict: {NOT_JUDGED} (exit status 0)"]
-    lines = ["  closed-loop gates (testbed validate's, testbed/validation/cases/closed_loop.py):"]
+    lines = ["  closed-loop gates (testbed validate's, testbed/gates/closed_loop.py):"]
     lines += [gate_line(g) for g in f["gates"]]
     lines += [f"    --    {name}: not judged ({why})" for name, why in f["gates_not_judged"].items()]
     ratios = [speed(f.get("speedup_vs_truth"), "Drake hydroelastic")]

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact import load_predictor
+from learned_contact import load_predictor, sources
 
 SENSITIVITY_CHECK = "testbed.validation.sensitivity:bias_5cm"
 
@@ -28,7 +28,7 @@ class Biased:
     """The improved predictor with every point moved `bias_m` [m] along A's +x."""
 
     def __init__(self, bias_m: float):
-        self._pred = load_predictor("improved")
+        self._pred = load_predictor(sources.DEFAULT)
         self.supported_sizes = self._pred.supported_sizes
         self.bias_m = float(bias_m)
         self.name = f"improved, points {bias_m * 100:+g} cm along A's x"
@@ -42,7 +42,7 @@ class TiltedNormal:
     """The improved predictor with every normal rotated `deg` about A's y (A's z toward A's +x)."""
 
     def __init__(self, deg: float):
-        self._pred = load_predictor("improved")
+        self._pred = load_predictor(sources.DEFAULT)
         self.supported_sizes = self._pred.supported_sizes
         a = np.radians(deg)
         self._R = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])

@@ -14,8 +14,8 @@ import math
 
 from learned_contact import sources
 from testbed.document import Bullets, Section, Text, Verdict, table
+from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M, judge as closed_loop_gates
 from testbed.validation.cases import ok_records, registry
-from testbed.validation.cases.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, GATED, MAX_PENETRATION_M, ClosedLoopCase
 from testbed.validation.gates import is_known_limit, shown
 from testbed.validation.sensitivity import SENSITIVITY_CHECK
 
@@ -142,7 +142,7 @@ def _in_scene(s: dict):
 
 def _predictor_row(name: str, closed: list[dict], scenes: list[dict], methods: dict) -> tuple:
     label = sources.label(name)
-    shown_name = label + (" (gated)" if name == GATED else " (reported, not gated)")
+    shown_name = label + (" (gated)" if name == sources.DEFAULT else " (reported, not gated)")
     prefix = _method_prefix(name)
     in_scene = [v for s in scenes if (v := _in_scene(s)) is not None] if name == sources.DEFAULT else []
     runs = [(s, s["predictors"][name]) for s in closed if name in s["predictors"]]
@@ -159,7 +159,7 @@ def _closed_verdict(runs) -> str:
         return "-"
     held, pinned, diverged = [], [], []
     for s, f in runs:
-        gates = ClosedLoopCase().gates({"id": "", "result": {**s, "predictors": {GATED: f}}})
+        gates = closed_loop_gates(s, f, "")
         if f["diverged"]:
             diverged.append(s["scene"])
         if gates and all(g.passed for g in gates):

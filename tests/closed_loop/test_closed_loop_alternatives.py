@@ -37,7 +37,8 @@ contact force there hardly changes; a sliding box (kinetic friction) feels it.
 import closed_loop_alternatives as alt
 import pytest
 
-from testbed.validation.cases.closed_loop import DEFAULT_SCENES, GATED, ClosedLoopCase
+from testbed.gates.closed_loop import DEFAULT_SCENES
+from testbed.validation.cases.closed_loop import GATED, ClosedLoopCase
 
 SCENES = tuple((s, d) for s, d in DEFAULT_SCENES if s in ("overhang_hold", "overhang_tip", "stack_slide_rest"))
 # alternative -> (scene, the gates it must fail there): where the closed form says it goes wrong

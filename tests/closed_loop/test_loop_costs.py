@@ -86,7 +86,8 @@ def test_system_counters_cover_calc_and_predictor():
 
 
 def test_closed_loop_verdict_says_where_the_time_goes_when_not_faster(tilted_compare):
-    from testbed.validation.cases.closed_loop import KEYS, verdict
+    from testbed.gates.closed_loop import KEYS
+    from testbed.validation.cases.closed_loop import verdict
 
     figures, _ = tilted_compare
     assert "cost_learned" in KEYS  # kept in the validate record

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from testbed.commands.scenes import container_contact
+from testbed.gates import closed_loop
 from testbed.scenario import load_scenario, shipped_scenes
-from testbed.validation.cases import closed_loop
 
 ROOT = Path(__file__).resolve().parents[2]
 GATES = ["no divergence", "final position", "final angle", "max penetration", "energy"]

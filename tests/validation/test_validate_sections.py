@@ -9,7 +9,8 @@ import sys
 import pytest
 
 from testbed.document import Figure, Section, Table, to_html, to_markdown
-from testbed.validation.cases import closed_loop as cl, registry
+from testbed.gates import closed_loop as cl
+from testbed.validation.cases import registry
 
 SHORT_S = 0.1  # [s] simulated: enough for every figure to be computed, ~2 s of wall time per runner
 

@@ -42,7 +42,7 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
-from learned_contact import WeightsError, load_predictor
+from learned_contact import WeightsError, load_predictor, sources
 from learned_contact.interface import SIZE_TOLERANCE
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
@@ -57,7 +57,7 @@ NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (pre
 
 @dataclasses.dataclass
 class LearnedDynamicsConfig:
-    predictor: str = "improved"  # any learned_contact.sources spec: improved | paper | .npz | .onnx | module:attribute
+    predictor: str = sources.DEFAULT  # any learned_contact.sources spec: improved | paper | .npz | .onnx | module:attribute
     pressure_stiffness: typing.Optional[float] = None  # [Pa/m] kappa; None = fitted per size pair
     dissipation: float = 5.0  # [s/m] Hunt-Crossley d, the models' hunt_crossley_dissipation (sdf/README.md)
     mu: typing.Optional[float] = None  # None: the friction effect's mu (SDF 0.4), 0 without it

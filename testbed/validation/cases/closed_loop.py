@@ -29,123 +29,30 @@ from testbed.compare import compare_predictors
 from testbed.compare.costs import breakdown_line
 from testbed.document import Bullets, Section, Text, table
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
-from testbed.geometry.rotations import angle_between_quaternions_deg
+from testbed.gates.closed_loop import (
+    DEFAULT_SCENES,
+    DISCRIMINATION,
+    DRIFT_TOL_M_PER_MIN,
+    ENERGY_FRACTION,
+    FINAL_ANGLE_TOL_DEG,
+    FINAL_POSITION_TOL_M,
+    MAX_PENETRATION_M,
+    MIN_DRIFT_DURATION_S,
+    SMOKE_DURATION_S,
+    TIP_ANGLE_DEG,
+    case_result,
+    judge,
+)
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 from testbed.validation.sensitivity import SENSITIVITY_CHECK
 
 SENSITIVITY_LABEL = "improved, every point +5 cm along A's x (sensitivity check)"
 PREDICTORS = sources.SHIPPED_NAMES  # ("improved", "paper")
-GATED = "improved"
-# Issue 10, section 5 (the starting values; none is loosened here).
-FINAL_POSITION_TOL_M = 0.02  # final position of every container within 2 cm of the truth's
-FINAL_ANGLE_TOL_DEG = 0.5  # final orientation within 0.5 deg of the truth's
-MAX_PENETRATION_M = 0.020  # deepest container-container (SAT) or container-quay penetration
-# Known limits, pinned like the stress suite's expected failures: the gate holds while the
-# figure stays in the band around the pinned one (worse, or much better, fails).
-# scene -> (why, {gate: (pinned figure, (low, high) band factors)}).
-KNOWN_LIMITS = {
-    "crane_edge_landing": (
-        "the load lands with its centre of mass over the stack's edge and tips off after the twistlocks "
-        "release, in the ground truth and in the closed loop alike: where it comes to rest is a balance-point "
-        "outcome (MuJoCo with matched contact, identical until the release, ends 6.5 m away too), and Drake's own "
-        "hydroelastic ground truth penetrates 39.5 mm on this edge-first landing, above the 20 mm bound",
-        {"final position": (1.008, (0.5, 2.0)), "final angle": (5.3, (0.5, 2.0)),
-         "max penetration": (0.0457, (0.8, 1.25))}),
-}
-# Outcome gate (issue 23) on the scenes where the contact point decides whether a box holds or
-# tips: a run 'tips' when a free container's final orientation is more than TIP_ANGLE_DEG from its
-# initial one; the learned run must tip iff the truth's does. 5 deg lies between what holding
-# boxes reach (Drake hydroelastic on overhang_hold: 0.24 deg, rocking from the flat start) and
-# where the tipping one is at the end (overhang_tip at 0.9 s: 8 deg; the rigid closed form
-# reaches 5 deg at 0.90 s, Drake hydroelastic at 0.71 s).
-TIP_ANGLE_DEG = 5.0
-OUTCOME_SCENES = ("overhang_hold", "overhang_tip")
-# How much each of those scenes discriminates: the smallest change to the shipped predictor that
-# fails the scene's gates, by bisection (every point moved along the overhang axis, A's x, or every
-# normal tilted toward it; tests/closed_loop_alternatives.py), measured with these gates and durations.
-DISCRIMINATION = {
-    "overhang_hold": "points 24 mm away from the overhang (energy created; final position from 56 mm; the box "
-                     "tips at 75-150 mm); points 5 or 30 cm toward it pass",
-    "overhang_tip": "points 3 mm toward the overhang (final angle: the box tips late; the shipped predictor's own "
-                    "0.39 deg is 2-3 mm of bias from the 0.5 deg bound) or 4 mm away from it (energy created)",
-    "stack_slide_rest": "normals tilted 0.28 deg toward the motion (final position: slides 2 cm further); "
-                        "points moved 30 cm either way pass",
-}
-DRIFT_TOL_M_PER_MIN = 1e-3  # resting drift: < 1 mm per simulated minute
-ENERGY_FRACTION = 0.01  # E(t) - E(0) <= 1% of the scene's largest potential drop
-# Resting drift is the steepest fitted slope of a container's position over the second half
-# of the run (testbed.compare.metrics.drift_rate). That half must start after the settling
-# transient: measured on two_stack, Drake's own drift is 0.47 mm/min over 0.25-0.5 s (still
-# settling) and 1.7e-4 mm/min over 1-2 s, so the gate is judged on runs of at least 1 s.
-MIN_DRIFT_DURATION_S = 1.0
-# Scenes whose containers should end at rest (the crane scenes land a moving box; their
-# drift is not a rest figure).
-RESTING_SCENES = ("two_stack", "five_stack", "nine_mixed_stack", "bridge", "windy_stack")
-# (scene, simulated duration [s]): each scene's own (crane_landing_sway lands its box at ~7.5 s,
-# so it keeps its 9 s). Measured on 2 cores shared with other work (load ~4.7): ~350 s of
-# worker time for all nine, ~3 min with 2 workers (nine_mixed_stack 89 s, crane_landing_sway
-# ~95 s; Drake's hydroelastic run is most of it).
-DEFAULT_SCENES = (("two_stack", 2.0), ("five_stack", 2.0), ("nine_mixed_stack", 5.0), ("bridge", 2.0),
-                  ("windy_stack", 4.0), ("crane_misaligned", 5.0), ("crane_hard_landing", 3.0),
-                  ("crane_edge_landing", 5.0), ("crane_landing_sway", 9.0),
-                  # issue 23: the contact point / normal decides the outcome; ~4 s of worker time for the
-                  # three (measured 2.2 + 0.8 + 0.6 s with improved and paper; the paper diverges early)
-                  ("overhang_hold", 1.5), ("overhang_tip", 0.9), ("stack_slide_rest", 1.2))
-SMOKE_DURATION_S = 0.3  # two_stack only: shows the section, costs ~2 s
-
-# compare.json figures kept in the record (scalars; the rest stays in the twin-run files)
-KEYS = ("diverged", "departed", "position_error_max_m", "final_position_error_max_m", "final_angle_error_max_deg",
-        "angle_error_max_deg", "max_penetration_m", "max_container_penetration_m", "max_ground_penetration_m",
-        "energy_gain_max_J", "energy_gain_max_truth_J", "potential_drop_max_J", "drift_m_per_min_learned",
-        "drift_m_per_min_truth", "simulated_s_learned", "learned_error", "worst_container", "worst_time_s",
-        "wall_per_sim_s_truth", "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth",
-        "speedup_vs_point", "stability_max", "predictor_kind", "cost_learned")
-
-
+GATED = sources.DEFAULT  # the shipped predictor the gates judge
 def closed_loop_cases(scenes, suffix: str = "") -> list[Case]:
     return [Case(f"closed-{s}{suffix}", "closed_loop", {"scene": s, "duration": d, "predictors": list(PREDICTORS)})
             for s, d in scenes]
-
-
-def series_figures(out_dir, tol_m: float = FINAL_POSITION_TOL_M) -> dict:
-    """From a twin run's trajectories.npz: 'leaves_truth_at_s' [s], the first recorded time a
-    container is more than tol_m from the truth's (None: never), and 'energy_gain_gated_J'
-    [J] = max over t of (E(t) - E(0)) of the learned run minus max(0, the truth's E(t) - E(0))
-    at the same t: the work an external actor (a moving crane trolley, the wind) does on the
-    containers in Drake's run is not counted as energy the contact model created; for a
-    passive scene the truth's E(t) - E(0) <= 0 and this is the learned run's E(t) - E(0);
-    'final_tilt_max_deg' / 'final_tilt_max_truth_deg' [deg]: the largest rotation of a free
-    container between its first and last recorded orientation, in the learned run / the
-    truth's (what the outcome gate reads)."""
-    import numpy as np
-
-
-    with np.load(f"{out_dir}/trajectories.npz") as d:
-        err = d["position_error"]  # (n, m) [m] learned vs truth
-        t = d["learned_time"]
-        over = np.flatnonzero(~(np.nan_to_num(err, nan=np.inf).max(axis=1) <= tol_m))
-        n = len(t)
-        gain = d["learned_energy"] - d["learned_energy"][0]  # (n,) [J]
-        external = np.maximum(0.0, d["truth_energy"][:n] - d["truth_energy"][0])  # (n,) [J]
-        tilt = [float(np.max(angle_between_quaternions_deg(d[f"{k}_q_WB"][-1], d[f"{k}_q_WB"][0]), initial=0.0))
-                for k in ("learned", "truth")]
-    excess = gain - external
-    return {"leaves_truth_at_s": float(t[over[0]]) if over.size else None,
-            "energy_gain_gated_J": float(np.max(np.nan_to_num(excess, nan=np.inf))),
-            "final_tilt_max_deg": tilt[0], "final_tilt_max_truth_deg": tilt[1]}
-
-
-def case_result(scene: str, duration: float, runs) -> dict:
-    """A closed-loop case's result (what `gates` judges) from twin runs against one truth:
-    runs = [(predictor, compare.json figures, the twin run's directory)]. Also used by
-    `testbed compare` (testbed/validation/compare_verdict.py) to judge its run the same way."""
-    out = {name: {**{k: f.get(k) for k in KEYS}, **series_figures(d)} for name, f, d in runs}
-    first = runs[0][1]
-    drop = first["potential_drop_max_J"]
-    return {"scene": scene, "duration_s": float(duration), "time_step_s": first["time_step_s"],
-            "resting": scene in RESTING_SCENES, "largest_potential_drop_J": drop,
-            "energy_limit_J": ENERGY_FRACTION * drop, "predictors": out}
 
 
 @register
@@ -178,45 +85,17 @@ class ClosedLoopCase(CaseKind):
             return case_result(scene, duration, list(zip(predictors, figures, dirs)))
 
     def gates(self, record: dict) -> list[Gate]:
+        """The closed-loop gates (testbed.gates.closed_loop) of the gated predictor."""
         s, cid = record["result"], record["id"]
         f = s["predictors"].get(GATED)
-        if f is None:
-            return []
-        name = f"{cid}: {GATED}"
-        gates = [
-            Gate(f"{name}: no divergence", not f["diverged"], f["diverged"], False, "",
-                 "the closed loop ran to the end, finite, no container 0.1 m deep, no energy created beyond the truth's"),
-            Gate(f"{name}: final position", _le(f["final_position_error_max_m"], FINAL_POSITION_TOL_M),
-                 f["final_position_error_max_m"], FINAL_POSITION_TOL_M, "m",
-                 "largest distance of a container's final position from the ground truth's"),
-            Gate(f"{name}: final angle", _le(f["final_angle_error_max_deg"], FINAL_ANGLE_TOL_DEG),
-                 f["final_angle_error_max_deg"], FINAL_ANGLE_TOL_DEG, "deg",
-                 "largest rotation between a container's final orientation and the ground truth's"),
-            Gate(f"{name}: max penetration", _le(f["max_penetration_m"], MAX_PENETRATION_M), f["max_penetration_m"],
-                 MAX_PENETRATION_M, "m", "deepest container-container (separating-axis) or container-quay penetration"),
-            Gate(f"{name}: energy", _le(f["energy_gain_gated_J"], s["energy_limit_J"]), f["energy_gain_gated_J"],
-                 s["energy_limit_J"], "J",
-                 f"max over time of E(t) - E(0) in the closed loop, less the work a crane or the wind does in Drake's "
-                 f"run; limit {ENERGY_FRACTION:.0%} of the scene's largest potential drop "
-                 f"({s['largest_potential_drop_J']:.4g} J, max over t of V(0) - V(t) in Drake's run)"),
-        ]
-        if s["scene"] in OUTCOME_SCENES and f.get("final_tilt_max_truth_deg") is not None:
-            gates.append(_outcome(name, f))
-        known = KNOWN_LIMITS.get(s["scene"])
-        if known is not None:
-            gates = [_pinned(g, name, known) for g in gates]
-        if s["resting"] and s["duration_s"] >= MIN_DRIFT_DURATION_S:
-            gates.append(Gate(f"{name}: resting drift", _le(f["drift_m_per_min_learned"], DRIFT_TOL_M_PER_MIN),
-                              f["drift_m_per_min_learned"], DRIFT_TOL_M_PER_MIN, "m/min",
-                              "steepest fitted drift of a container over the second half of the run, per simulated minute"))
-        return gates
+        return [] if f is None else judge(s, f, f"{cid}: {GATED}")
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
             return []
         judged = [(r, self.gates(r)) for r in records]
         pinned = [r["result"]["scene"] for r, g in judged
-                  if g and all(x.passed for x in g) and any(x.name.endswith("(known limit)") for x in g)]
+                  if g and all(x.passed for x in g) and any(x.known_limit is not None for x in g)]
         held = [r["result"]["scene"] for r, g in judged if g and all(x.passed for x in g)
                 and r["result"]["scene"] not in pinned]
         failed = [r["result"]["scene"] for r, g in judged if g and not all(x.passed for x in g)]
@@ -295,36 +174,6 @@ def _discrimination(records: list[dict]) -> list:
     return [Text("Scenes where the contact point or normal decides the outcome (issue 23; closed forms in the scene "
                  "files): the smallest change to the shipped predictor that fails each scene's gates, measured:"),
             Bullets(tuple(f"{s}: {DISCRIMINATION[s]}" for s in scenes))]
-
-
-def _outcome(name: str, f: dict) -> Gate:
-    """The learned run tips (a free container's final rotation from its start above
-    TIP_ANGLE_DEG) iff the truth's does."""
-    learned, truth = f["final_tilt_max_deg"], f["final_tilt_max_truth_deg"]
-    tips = truth > TIP_ANGLE_DEG
-    ok = learned is not None and not math.isnan(learned) and (learned > TIP_ANGLE_DEG) == tips
-    return Gate(f"{name}: outcome", ok, learned, TIP_ANGLE_DEG, "deg",
-                f"tips (a container's final rotation from its start above {TIP_ANGLE_DEG:g} deg) iff the truth's does: "
-                f"the truth {'tips' if tips else 'holds'} ({truth:.3g} deg)")
-
-
-def _pinned(gate: Gate, prefix: str, known) -> Gate:
-    """`gate` judged against its pinned band when KNOWN_LIMITS lists it for the scene."""
-    why, pins = known
-    short = gate.name[len(prefix) + 2:]
-    if short not in pins:
-        return gate
-    pinned, (low, high) = pins[short]
-    band = [low * pinned, high * pinned]
-    ok = gate.value is not None and band[0] <= gate.value <= band[1]
-    return Gate(f"{gate.name} (known limit)", ok, gate.value, band, gate.unit,
-                f"{gate.description}; known limit above the {gate.threshold} {gate.unit} bound, pinned at {pinned}: "
-                f"{why}. Fails if the figure leaves the band.", bound=gate.threshold)
-
-
-def _le(value, limit) -> bool:
-    """value <= limit, False for NaN or None (a figure that could not be measured fails)."""
-    return value is not None and not (isinstance(value, float) and math.isnan(value)) and value <= limit
 
 
 def _num(value, scale=1.0, fmt=".3g") -> str:

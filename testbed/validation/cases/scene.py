@@ -11,11 +11,11 @@ from __future__ import annotations
 from testbed import variants
 from testbed.bodies.models import GROUND_NAME
 from testbed.document import Section, Text, table
+from testbed.gates import Gate, KnownLimit, pinned
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.simulation import run_scenario
 from testbed.validation.cases import Case, CaseKind, ok_records, register
-from testbed.validation.gates import Gate
 
 # Rest figures (force balance, resting penetration) are averaged over the last
 # REST_WINDOW_S of the run: point contact hops between corners step to step, and
@@ -134,11 +134,10 @@ class SceneCase(CaseKind):
                          IN_SCENE_POINT_MEDIAN_M, "m",
                          "median distance between the predictor's point and Drake's hydroelastic centre of pressure "
                          "over every logged container pair and step")]
-        reason, pinned, (better, worse) = known
-        return [Gate(f"{cid}: learned point error in scene (known limit)", better * pinned <= median <= worse * pinned,
-                     median, [better * pinned, worse * pinned], "m",
-                     f"known limit, pinned at {pinned * 100:.1f} cm (above the {IN_SCENE_POINT_MEDIAN_M * 100:g} cm "
-                     f"bound): {reason}; the gate fails if the figure leaves the band", bound=IN_SCENE_POINT_MEDIAN_M)]
+        reason, figure, factors = known
+        return [pinned(f"{cid}: learned point error in scene", median, IN_SCENE_POINT_MEDIAN_M, "m",
+                       "median distance between the predictor's point and Drake's hydroelastic centre of pressure",
+                       KnownLimit(figure, factors, reason))]
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:
