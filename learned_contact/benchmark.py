@@ -19,25 +19,22 @@ Prints the table and the ratios the issue's targets are stated in:
 `--first-call` also measures, in fresh processes, the first predict call with a warm
 numba cache and with an empty one (NUMBA_CACHE_DIR pointed at a new folder).
 
-Timings are best-of-5 medians-free minima (least disturbed by other load); BLAS is
-limited to one thread where threadpoolctl is installed (Drake's queries are
-single-threaded, and on a 2-core machine two OpenBLAS pools, numpy's and scipy's that
-numba imports, otherwise spin against each other).
+Timings are best-of-5 minima (least disturbed by other load), by learned_contact.cost (the
+bench and the query study time with the same code); BLAS is limited to one thread where
+threadpoolctl is installed (Drake's queries are single-threaded, and on a 2-core machine two
+OpenBLAS pools, numpy's and scipy's that numba imports, otherwise spin against each other).
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import os
-import subprocess
-import sys
 import tempfile
-import time
 
 import numpy as np
 
-from learned_contact.labels import _pair_scene, _query, make_dataset
+from learned_contact.cost import first_call_s, one_blas_thread, per_pair_s
+from learned_contact.labels import make_dataset, pair_scene, posed_query
 from learned_contact.sources import SHIPPED_NAMES, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
 
@@ -51,52 +48,18 @@ TARGETS = {  # ratio name -> upper bound (issue 10)
 
 def _per_pair(fn, repeats: int, pairs: int) -> float:
     """Best-of-5 microseconds per pair of calling fn() `repeats` times on `pairs` pairs each."""
-    best = np.inf
-    for _ in range(5):
-        t = time.perf_counter()
-        for _ in range(repeats):
-            fn()
-        best = min(best, (time.perf_counter() - t) / (repeats * pairs))
-    return best * 1e6
-
-
-def _one_thread_blas():
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        return contextlib.nullcontext()
-    return threadpool_limits(1)
-
-
-FIRST_CALL = (
-    "import time; t0 = time.perf_counter()\n"
-    "import numpy as np\n"
-    "from learned_contact import load_predictor\n"
-    "t1 = time.perf_counter()\n"
-    "pred = load_predictor({kind!r})\n"
-    "pred.predict(np.array([0.1, 0.0, 2.58]), np.eye(3), size_A=[6.058, 2.438, 2.591], size_B=[6.058, 2.438, 2.591])\n"
-    "t2 = time.perf_counter()\n"
-    "pred.predict(np.array([0.1, 0.0, 2.58]), np.eye(3), size_A=[6.058, 2.438, 2.591], size_B=[6.058, 2.438, 2.591])\n"
-    "t3 = time.perf_counter()\n"
-    "print(t1 - t0, t2 - t1, t3 - t2)\n"
-)
+    return per_pair_s(lambda: [fn() for _ in range(repeats)], repeats * pairs, rounds=5) * 1e6
 
 
 def first_call_costs(kinds=SHIPPED_NAMES) -> dict:
-    """{kind/cache: (import s, load + first predict s, second predict s)} in fresh processes."""
+    """{kind/cache: seconds from a fresh interpreter's first import to the first answer}, with
+    numba's default on-disk cache (warm: filled first) and an empty one (cold)."""
     out = {}
     with tempfile.TemporaryDirectory() as cold:
         for kind in kinds:
-            for cache in ("cold", "warm"):  # cold fills the temporary cache, warm reuses the default one
-                env = dict(os.environ)
-                if cache == "cold":
-                    env["NUMBA_CACHE_DIR"] = os.path.join(cold, kind)
-                else:  # make sure the default cache is filled, then time a fresh process
-                    subprocess.run([sys.executable, "-c", FIRST_CALL.format(kind=kind)], check=True,
-                                   capture_output=True, env=env)
-                res = subprocess.run([sys.executable, "-c", FIRST_CALL.format(kind=kind)], check=True,
-                                     capture_output=True, text=True, env=env)
-                out[f"{kind}, {cache} cache"] = tuple(float(v) for v in res.stdout.split())
+            first_call_s(kind)  # fills the default cache
+            out[f"{kind}, warm cache"] = first_call_s(kind)
+            out[f"{kind}, cold cache"] = first_call_s(kind, env={"NUMBA_CACHE_DIR": os.path.join(cold, kind)})
     return out
 
 
@@ -139,16 +102,16 @@ def measure(args) -> dict:
         1, len(packed))
 
     code = {tuple(CONTAINER_TYPES[t].size): t for t in ("1CC", "1AA", "1AAA")}
-    scenes = [_pair_scene(code[tuple(a)], code[tuple(b)]) for a, b in zip(sA, sB)]
+    scenes = [pair_scene(code[tuple(a)], code[tuple(b)]) for a, b in zip(sA, sB)]
     poly = HydroelasticContactRepresentation.kPolygon
     i0 = int(idx[0])
-    q = _query(scenes[i0], R[i0], p[i0])
+    q = posed_query(scenes[i0], R[i0], p[i0])
     assert q.ComputePointPairPenetration() and q.ComputeContactSurfaces(poly)  # in contact
     res["drake point-pair, kernel (query only)"] = _per_pair(q.ComputePointPairPenetration, 2000, 1)
     res["drake point-pair, set pose + query"] = _per_pair(
-        lambda: [_query(scenes[i], R[i], p[i]).ComputePointPairPenetration() for i in idx], 1, len(idx))
+        lambda: [posed_query(scenes[i], R[i], p[i]).ComputePointPairPenetration() for i in idx], 1, len(idx))
     res["drake hydroelastic, set pose + query"] = _per_pair(
-        lambda: [_query(scenes[i], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
+        lambda: [posed_query(scenes[i], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
     return res
 
 
@@ -171,7 +134,7 @@ def main(argv=None) -> dict:
     parser.add_argument("--batch", type=int, default=4096, help="poses per batched call")
     parser.add_argument("--first-call", action="store_true", help="also time first calls in fresh processes")
     args = parser.parse_args(argv)
-    with _one_thread_blas():
+    with one_blas_thread():
         res = measure(args)
     rat = ratios(res, args.batch)
     width = max(len(k) for k in (*res, *rat)) + 2
@@ -186,9 +149,9 @@ def main(argv=None) -> dict:
     out = {"us_per_pair": res, "ratios": rat}
     if args.first_call:
         first = first_call_costs()
-        print("first call in a fresh process [s]: import learned_contact, load + first predict, second predict")
-        for k, (imp, first_s, second) in first.items():
-            print(f"  {k:<24} {imp:7.3f} {first_s:8.3f} {second:10.6f}")
+        print("first call in a fresh process [s]: import learned_contact, load and the first predict")
+        for k, seconds in first.items():
+            print(f"  {k:<24} {seconds:8.3f}")
         out["first_call_s"] = first
     return out
 

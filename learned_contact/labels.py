@@ -35,7 +35,7 @@ _BISECT_TOL = 1e-6  # [m]
 _SCENES: dict = {}
 
 
-def _pair_scene(type_a: str, type_b: str):
+def pair_scene(type_a: str, type_b: str):
     """The per-process two-container plant for (type_a, type_b) (testbed.contact.pair_plant)."""
     key = (type_a, type_b)
     if key not in _SCENES:
@@ -45,12 +45,13 @@ def _pair_scene(type_a: str, type_b: str):
     return _SCENES[key]
 
 
-def _query(scene, R, p):
+def posed_query(scene, R, p):
+    """Drake's QueryObject of a pair scene with B posed at (p (3,) [m], R (3, 3)) in A."""
     return scene.set_pose(p, R)
 
 
 def _signed_distance(scene, R, p) -> float:
-    q = _query(scene, R, p)
+    q = posed_query(scene, R, p)
     return q.ComputeSignedDistancePairClosestPoints(scene.gid_a, scene.gid_b).distance
 
 
@@ -61,7 +62,7 @@ def label_one(type_a: str, type_b: str, R_AB, base, direction, depth) -> np.ndar
 
     from testbed.contact.surfaces import static_pressure, surface_face_arrays
 
-    scene = _pair_scene(type_a, type_b)
+    scene = pair_scene(type_a, type_b)
     R_AB = np.asarray(R_AB)
     lo, hi = 0.0, 30.0  # [m] along direction; lo is deeply overlapping, hi separated
     while _signed_distance(scene, R_AB, base + hi * direction) < 0:
@@ -73,7 +74,7 @@ def label_one(type_a: str, type_b: str, R_AB, base, direction, depth) -> np.ndar
         else:
             hi = mid
     p_AB = base + hi * direction
-    q = _query(scene, R_AB, p_AB)
+    q = posed_query(scene, R_AB, p_AB)
     signed = q.ComputeSignedDistancePairClosestPoints(scene.gid_a, scene.gid_b).distance
     row = np.full(LABEL_WIDTH, np.nan)
     row[0:3] = p_AB

@@ -13,12 +13,12 @@ fcl.collide, mj_collision). Absolute times depend on the machine: compare ratios
 
 from __future__ import annotations
 
-import contextlib
-import math
 import time
 
 import numpy as np
 
+from learned_contact import cost
+from learned_contact.cost import fastest_ns
 from testbed.progress import progress as progress_bar
 from testbed.studies.query.methods import ContactMethod, build_methods
 from testbed.studies.query.poses import pooled
@@ -27,14 +27,10 @@ THROUGHPUT_BATCH = 4096  # pairs per call for the batched methods' throughput fi
 
 
 def _min_ns(fn, repeats: int) -> float:
-    """Fastest wall time [ns] of `repeats` calls of fn (after the caller's warm-up): the
-    cost of the call without interference from other processes on shared cores."""
-    best = math.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        fn()
-        best = min(best, time.perf_counter_ns() - t0)
-    return float(best)
+    """Fastest wall time [ns] of `repeats` calls of fn (after the caller's warm-up):
+    learned_contact.cost's timing, which the bench and the benchmark script use too."""
+    return fastest_ns(fn, repeats)
+
 
 def measure_set(poses, methods: list[ContactMethod], repeats: int, *, progress: bool):
     """Runs every available method on every pose of one set.
@@ -79,16 +75,7 @@ def measure_set(poses, methods: list[ContactMethod], repeats: int, *, progress: 
     return out
 
 
-@contextlib.contextmanager
-def one_blas_thread():
-    """Limits numpy's BLAS to one thread (threadpoolctl); yields a note for the report."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:
-        yield "not limited (threadpoolctl not installed)"
-        return
-    with threadpool_limits(limits=1):
-        yield 1
+one_blas_thread = cost.one_blas_thread  # numpy's BLAS on one thread while timing
 
 
 def throughput(methods_metrics: dict, sets: dict, scenes, options, repeats: int) -> None:

@@ -1,0 +1,138 @@
+"""What a contact query costs: the one timing code behind the bench's cost section
+(testbed.bench.cost), the query study (testbed/studies/query) and the benchmark script
+(learned_contact.benchmark).
+
+- `fastest_ns(fn, repeats)`: the fastest of `repeats` calls [ns], the cost of the call
+  without interference from other processes on shared cores (the caller warms up first);
+- `per_pair_s(fn, pairs, rounds)`: the fastest round [s] divided by the pairs it answers;
+- `one_blas_thread()`: numpy's BLAS limited to one thread while timing (threadpoolctl): Drake's
+  queries are single-threaded, and on 2 shared cores a threaded BLAS made batched calls 10x
+  slower and erratic;
+- `predictor_cost(pred, singles, batched)`: seconds per pair asked one pair per call (a
+  simulator's per-contact call) and batched (every pair of a step in one call);
+- `drake_point_pair_cost(singles)`: Drake's point-pair query per pair, with the pose set per
+  call and the query alone (the reference every ratio is stated against);
+- `first_call_s(spec)`: import, load and the first answer in a fresh interpreter (what a
+  simulator pays at start-up), under learned_contact.limits' bounds.
+
+Poses: `singles` is a list of (p_AB (3,) [m], R_AB (3, 3), size_A (3,), size_B (3,)) and
+`batched` one tuple of (n, 3), (n, 3, 3), (n, 3), (n, 3) arrays. Absolute times depend on the
+machine: state ratios measured in the same run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from learned_contact import limits
+from learned_contact.errors import WeightsError
+from learned_contact.labels import pair_scene, posed_query
+from testbed.bodies.containers import CONTAINER_TYPES
+
+ROUNDS = 3  # timing rounds; the fastest counts
+
+
+def fastest_ns(fn, repeats: int) -> float:
+    """Fastest wall time [ns] of `repeats` calls of fn()."""
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter_ns()
+        fn()
+        best = min(best, time.perf_counter_ns() - t0)
+    return float(best)
+
+
+def per_pair_s(fn, pairs: int, rounds: int = ROUNDS) -> float:
+    """Seconds per pair of fn(), which answers `pairs` pairs: its fastest of `rounds` calls."""
+    return fastest_ns(fn, rounds) * 1e-9 / pairs
+
+
+@contextlib.contextmanager
+def one_blas_thread():
+    """numpy's BLAS on one thread inside the block (threadpoolctl); yields 1, or a note
+    when threadpoolctl is not installed (the timing is then not limited)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        yield "not limited (threadpoolctl not installed)"
+        return
+    with threadpool_limits(limits=1):
+        yield 1
+
+
+def predictor_cost(pred, singles, batched, rounds: int = ROUNDS) -> dict:
+    """{"single_s_per_pair", "batched_s_per_pair"} of a loaded predictor on the same poses."""
+    pb, Rb, sAb, sBb = batched
+    pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm (compiled code loaded, caches filled)
+    return {
+        "single_s_per_pair": per_pair_s(lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles],
+                                        len(singles), rounds),
+        "batched_s_per_pair": per_pair_s(lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), len(pb), rounds),
+    }
+
+
+def _type_of(size) -> str:
+    code = {tuple(np.round(t.size, 3)): name for name, t in CONTAINER_TYPES.items()}
+    return code[tuple(np.round(np.asarray(size, dtype=float), 3))]
+
+
+def drake_point_pair_cost(singles, rounds: int = ROUNDS) -> dict:
+    """{"set_pose_and_query_s_per_pair", "kernel_s_per_pair"}: Drake's point-pair penetration
+    query on the pair scenes the labels use (learned_contact.labels), pose set per call, and the
+    query alone on an already-posed scene (the first pose)."""
+    scenes = [pair_scene(_type_of(a), _type_of(b)) for _, _, a, b in singles]
+    for scene, (p, R, _, _) in zip(scenes[:3], singles):  # build and warm
+        posed_query(scene, R, p).ComputePointPairPenetration()
+    query = posed_query(scenes[0], singles[0][1], singles[0][0])
+    return {"set_pose_and_query_s_per_pair": per_pair_s(
+                lambda: [posed_query(s, R, p).ComputePointPairPenetration() for s, (p, R, _, _) in zip(scenes, singles)],
+                len(singles), rounds),
+            "kernel_s_per_pair": per_pair_s(lambda: [query.ComputePointPairPenetration() for _ in range(1000)], 1000,
+                                            rounds)}
+
+
+FIRST_CALL = (
+    "import json, os, sys, time\n"
+    "sys.path.append(os.getcwd())\n"
+    "t0 = time.perf_counter()\n"
+    "import numpy as np\n"
+    "from learned_contact import limits, load_predictor\n"
+    "limits.set_limits(**json.loads(sys.argv[2]))\n"
+    "pred = load_predictor(sys.argv[1])\n"
+    "size = pred.supported_sizes[0]\n"
+    "pred.predict(np.array([0.0, 0.0, size[2] - 0.005]), np.eye(3), size_A=size, size_B=size)\n"
+    "print(time.perf_counter() - t0)\n"
+)
+
+
+def first_call_s(spec: str, env: dict | None = None) -> float:
+    """Seconds from a fresh interpreter's first import to the first answer of `spec` (the
+    child sees this process's sys.path, so a Python model found here is found there; `env`
+    adds variables, e.g. NUMBA_CACHE_DIR for a cold cache). WeightsError naming the model
+    when it fails or outruns twice its load bound plus its call bound and a minute."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(p for p in sys.path if p), **(env or {})}
+    bound = limits.limits()
+    timeout = 2 * bound.load_timeout_s + bound.call_timeout_s + 60.0
+    try:
+        proc = subprocess.run([sys.executable, "-c", FIRST_CALL, spec, json.dumps(dataclasses.asdict(bound))],
+                              capture_output=True, text=True, timeout=timeout, env=env, stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired:
+        raise WeightsError(f"model {spec}: its first call in a fresh process took longer than {timeout:g} s "
+                           "(twice --model-load-timeout, --model-call-timeout and 60 s) and was stopped") from None
+    if proc.returncode != 0:
+        tail = (proc.stderr.strip().splitlines() or ["no output"])[-1]
+        raise WeightsError(f"model {spec}: its first call in a fresh process failed: {tail[:300]}")
+    try:
+        return float(proc.stdout.strip().splitlines()[-1])
+    except (ValueError, IndexError):
+        raise WeightsError(f"model {spec}: its first call in a fresh process printed no time "
+                           f"(its output: {proc.stdout.strip()[-200:]!r})") from None
