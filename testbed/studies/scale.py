@@ -365,7 +365,8 @@ def report_sections(study: dict) -> list[Section]:
     shorter = sorted(n for n in config.sizes if n > config.big_above)
     key = (f"Yard blocks of {config.container_type} containers, {config.tiers} tiers, {config.row_gap:g} m between rows, "
            f"{config.bay_gap:g} m between bays, masses drawn from {config.mass_range[0]:g}-{config.mass_range[1]:g} kg "
-           f"(seed {config.seed}), from rest on the quay, at a {config.time_step * 1e3:g} ms step; every model at the "
+           f"(seed {config.seed}), from rest on the quay (they settle under their own weight: the errors measure "
+           f"settling, not a landing or a push), at a {config.time_step * 1e3:g} ms step; every model at the "
            f"learned law's modulus, judged against the Drake hydroelastic run of the same yard and duration. "
            f"Runs of {config.duration:g} s simulated"
            + (f"; SHORTER at the big sizes: {config.big_duration:g} s at N = {', '.join(map(str, shorter))}" if shorter else "")
