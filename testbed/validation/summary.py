@@ -104,6 +104,7 @@ def candidate_rows(records: list[dict]) -> list[tuple]:
         rows.append((POINT, f"{_median_mm(methods.get('drake_point'))} / {_span(point_scenes, 1e3)}",
                      "timed only (its trajectory is not compared)", _span(point_speed, fmt=".2g"),
                      _cost(methods.get("drake_point"))))
+    rows += soup_rows(methods)
     for params in dict.fromkeys(p for s in engine for p in s["mujoco"]):
         runs = [(s["scene"], s["mujoco"][params]) for s in engine if params in s["mujoco"]]
         within = [scene for scene, f in runs if _within_bounds(f)]
@@ -117,6 +118,18 @@ def candidate_rows(records: list[dict]) -> list[tuple]:
     if rows and "drake_hydro_cc" in methods:
         rows.append((REFERENCE, "0 / 0", "the ground truth", "1", _cost(methods["drake_hydro_cc"])))
     return rows
+
+
+def soup_rows(methods: dict) -> list[tuple]:
+    """Polygon soup, the paper's baseline (collision of triangle meshes: the paper's RAPID, here
+    FCL), at the coarsest and the finest mesh the query study timed: its contact point is
+    estimated from the colliding triangles, so its accuracy is bounded by their size."""
+    soups = sorted((int(m["N"]), name) for name, m in methods.items()
+                   if name.startswith("soup_N") and m.get("N") is not None and m.get("available", True))
+    picked = dict.fromkeys([soups[0], soups[-1]]) if soups else {}
+    return [(f"polygon soup, {12 * n * n:,} triangles per box (triangle meshes, FCL; the paper's baseline)",
+             f"{_median_mm(methods[name])} / -", "a query only (not a simulator)", "-", _cost(methods[name]))
+            for n, name in picked]
 
 
 def _predictor_of(method: str) -> str | None:

@@ -54,3 +54,17 @@ def test_table_of_contents_links_every_section_to_a_unique_anchor():
     for anchor in ("closed-loop-one", "closed-loop-one-2", "scenes"):
         assert f"href='#{anchor}'" in html and f"id='{anchor}'" in html
     assert "<nav" not in to_html("t", parts[:2])  # two sections need no contents line
+
+
+def test_polygon_soup_is_a_candidate_on_the_first_screen():
+    """The paper's baseline, named plainly, at the coarsest and finest mesh the query study timed."""
+    from testbed.validation.summary import soup_rows
+
+    def method(n, err, us):
+        return {"N": n, "all": {"point_error_m": {"median": err}, "time_us": {"median": us}}}
+
+    rows = soup_rows({"soup_N8": method(8, 0.224, 545.0), "soup_N12": method(12, 0.15, 900.0),
+                      "soup_N22": method(22, 0.08, 2500.0), "improved_single": method(None, 0.011, 10.0)})
+    assert [r[0].split(",")[0] for r in rows] == ["polygon soup", "polygon soup"]
+    assert "768 triangles per box" in rows[0][0] and "5,808 triangles per box" in rows[1][0]
+    assert rows[0][1].startswith("224") and rows[0][4].startswith("545") and rows[1][4].startswith("2500")
