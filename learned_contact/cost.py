@@ -70,14 +70,24 @@ def one_blas_thread():
 
 
 def predictor_cost(pred, singles, batched, rounds: int = ROUNDS) -> dict:
-    """{"single_s_per_pair", "batched_s_per_pair"} of a loaded predictor on the same poses."""
+    """{"single_s_per_pair", "batched_s_per_pair"} of a loaded predictor on the same poses.
+    For a model the testbed did not ship (learned_contact.external.ExternalPredictor) also
+    {"model_single_s_per_pair", "model_batched_s_per_pair"}: its own answer function alone (the
+    ONNX runtime's session.run, the Python object's predict), without the wrapper's checks,
+    depth and clipping: what an integrator calling the model directly pays."""
     pb, Rb, sAb, sBb = batched
     pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm (compiled code loaded, caches filled)
-    return {
+    out = {
         "single_s_per_pair": per_pair_s(lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles],
                                         len(singles), rounds),
         "batched_s_per_pair": per_pair_s(lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), len(pb), rounds),
     }
+    answer = getattr(pred, "answer_function", None)
+    if answer is not None:
+        ones = [tuple(np.asarray(v, dtype=float).reshape((1, *np.shape(v))) for v in pose) for pose in singles]
+        out["model_single_s_per_pair"] = per_pair_s(lambda: [answer(*pose) for pose in ones], len(ones), rounds)
+        out["model_batched_s_per_pair"] = per_pair_s(lambda: answer(pb, Rb, sAb, sBb), len(pb), rounds)
+    return out
 
 
 def _type_of(size) -> str:

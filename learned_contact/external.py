@@ -110,6 +110,12 @@ class ExternalPredictor:
         self.supported_sizes = np.ascontiguousarray(supported_sizes, dtype=float).reshape(-1, 3)
         self.meta = {"source": source, "name": name}
 
+    @property
+    def answer_function(self) -> AnswerFn:
+        """The model's raw answer function (no checks, depth or clipping): what the cost
+        benchmark times as the model alone (learned_contact.cost)."""
+        return self._answer
+
     def __repr__(self) -> str:
         return f"ExternalPredictor(kind={self.kind!r}, name={self.name!r}, source={self.source!r})"
 
