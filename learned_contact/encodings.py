@@ -131,7 +131,7 @@ def angle_error(pred, true) -> np.ndarray:
 
 
 # ---------------------------------------------------------------- improved features
-def features(p_c, R_c, h_A, h_B):
+def features(p_c, R_c, h_A, h_B, *, with_overlap: bool = False):
     """Fixed-cost inputs of the improved model, from a canonical pose.
 
     p_c (n, 3) [m], R_c (n, 3, 3), h_A, h_B (n, 3) half extents [m].
@@ -141,7 +141,9 @@ def features(p_c, R_c, h_A, h_B):
     p_c (3), h_A (3), h_B (3), b_j b_j^T of B's axes (18, sign invariant), the 15
     separating-axis overlaps (15, clipped), the estimate's normal (3) and point (3),
     its patch volume (1), depth (1), edge-axis flag (1), B's corners (24) and their
-    depth inside A (8), A's corners' depth inside B (8).
+    depth inside A (8), A's corners' depth inside B (8). with_overlap: a fourth array,
+    the 15 separating-axis overlaps (n, 15) [m] unclipped (the slab scale's faces,
+    learned_contact.expert.slab_axes).
     """
     n = len(p_c)
     s = LENGTH_SCALE
@@ -161,7 +163,7 @@ def features(p_c, R_c, h_A, h_B):
          np.clip(depth_A, -0.5, 0.5) * 10.0],
         axis=1,
     )
-    return x, point_est, n_est
+    return (x, point_est, n_est, overlap) if with_overlap else (x, point_est, n_est)
 
 
 LENGTH_SCALE = 1.0 / 6.0

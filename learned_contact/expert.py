@@ -24,17 +24,23 @@ Elsewhere (g = 0) the answer is the main network's, bit for bit; each network is
 evaluated only where its weight is not 0. A crane landing, a deep stack or B far off
 A's centre (the overhang scenes) never reach the expert.
 
-Where the geometric prior is exact the correction vanishes by construction. On a level
-stack the overlap is a slab of one depth, and the prior's depth-weighted patch centroid
-is Drake's centre of pressure (measured: 0.004 mm median); a network, however trained,
-answers it to about a millimetre. The slab ratio r = (height range of B's bottom face
-over the footprint both boxes share, from its tilt) / depth says how far a pose is from
-a slab, and inside the gate the correction is scaled by s = smoothstep(r / r_slab):
+Where the geometric prior is exact the correction vanishes by construction, everywhere
+(issue 30), not only inside the gate. Where B's face is parallel to A's (a level face on
+a face, any yaw, any offset, any pair of faces) the overlap is a slab of one depth, and
+the prior's depth-weighted patch centroid is Drake's centre of pressure (measured: under
+0.01 mm); a network, however trained, answers it to about a millimetre or worse (the main
+network: 3.2 cm). The slab ratio r = (height range of B's face over the footprint both
+boxes share, from its tilt) / depth says how far a pose is from a slab (slab_ratio, on
+the faces that meet: slab_axes), and every correction is scaled by s = smoothstep(r / r_slab):
 
-    y = (1 - g) * c * main(x) + g * c * expert(x),   c = 1 - g * (1 - s)
+    y = s ((1 - g) main(x) + g expert(x))
 
-so at r = 0 (and g = 1) the answer is the prior's exactly, and from r_slab on it is the
-expert's. Where g = 0, c = 1.
+so at r = 0 the answer is the prior's exactly (every octant frame, every path), and from
+r_slab on it is the networks' as before. The hand-over is C1 in r; r is continuous in the
+pose except where the prior's reference face changes (the prior itself switches there).
+Before issue 30 the scale applied inside the gate only (c = 1 - g (1 - s)): the two agree
+where g = 1 and wherever r >= r_slab; only poses with r < r_slab outside the gate or in its
+ramps are answered differently (closer to the prior).
 
 The bounds travel in the weights file (`expert/domain`, DOMAIN_FIELDS order), so a file
 declares where its expert answers.
@@ -96,23 +102,59 @@ def gate(p_c, R_c, depth, domain) -> np.ndarray:
             * _ramp_off(np.abs(p_c[:, 0]), d[6], d[7]) * _ramp_off(np.abs(p_c[:, 1]), d[6], d[7]))
 
 
-def slab_ratio(R_c, h_A, h_B, depth) -> np.ndarray:
-    """(n,) r = (height range of B's bottom face over the footprint both boxes share) /
-    depth: 2 (|z_B,x| min(h_A,x, h_B,x) + |z_B,y| min(h_A,y, h_B,y)) / depth, with z_B
-    B's z axis in the canonical frame and h half extents [m]; 0 on a level stack, inf
-    where depth <= 0 (meaningful inside the gate, where B rests on A's top face)."""
-    rise = 2.0 * (np.abs(R_c[:, 0, 2]) * np.minimum(h_A[:, 0], h_B[:, 0])
-                  + np.abs(R_c[:, 1, 2]) * np.minimum(h_A[:, 1], h_B[:, 1]))
+def slab_axes(R_c, overlap) -> tuple[np.ndarray, np.ndarray]:
+    """((n,) k, (n,) j): the axis pair whose faces meet, from the prior's reference face
+    (geometry.patch_estimate: the face axis of least overlap among overlap[:, :6], A's
+    three then B's three). A's face k: j = B's axis most aligned with A's k; B's face j:
+    k = A's axis most aligned with B's j. R_c (n, 3, 3) (columns: B's axes in A's
+    canonical frame), overlap (n, 15) [m] the separating-axis overlaps."""
+    face = np.argmin(overlap[:, :6], axis=1)
+    a = np.abs(R_c)
+    rows = np.arange(len(face))
+    on_A = face < 3
+    k = np.where(on_A, face, np.argmax(a[rows, :, face % 3], axis=1))
+    j = np.where(on_A, np.argmax(a[rows, face % 3, :], axis=1), face - 3)
+    return k, j
+
+
+def slab_ratio(R_c, h_A, h_B, depth, axes=None) -> np.ndarray:
+    """(n,) r = (height range of B's face over the footprint both boxes share, from its
+    tilt) / depth, for the faces that meet: A's face axis k and B's axis j (`axes`, the
+    pair of `slab_axes`; default A's z and B's z, a stack on A's top face):
+
+        r = 2 sum_{i != k} |R_c[i, j]| min(h_A,i, h_B,m(i)) / depth,
+
+    m(i) = B's axis other than j most aligned with A's i, h half extents (n, 3) [m],
+    depth (n,) [m]. 0 exactly where B's face is parallel to A's (B's axis j along A's
+    k to float precision: a level face on a face, any yaw and offset), inf where
+    depth <= 0. On a stack (k = j = z, B's x nearest A's x) this is
+    2 (|z_B,x| min(h_A,x, h_B,x) + |z_B,y| min(h_A,y, h_B,y)) / depth."""
+    n = len(R_c)
+    k, j = (np.full(n, 2), np.full(n, 2)) if axes is None else axes
+    rows = np.arange(n)
+    a = np.abs(R_c)
+    rise = np.zeros(n)
+    for i in range(3):
+        others = a[rows, i, :].copy()
+        others[rows, j] = -1.0
+        m = np.argmax(others, axis=1)
+        term = a[rows, i, j] * np.minimum(h_A[:, i], h_B[rows, m])
+        rise = rise + np.where(k == i, 0.0, term)
+    rise = 2.0 * rise
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(depth > 0.0, rise / np.where(depth > 0.0, depth, 1.0), np.inf)
 
 
-def weights(p_c, R_c, h_A, h_B, depth, domain) -> tuple[np.ndarray, np.ndarray]:
+def weights(p_c, R_c, h_A, h_B, depth, domain, overlap=None) -> tuple[np.ndarray, np.ndarray]:
     """(w_main (n,), w_expert (n,)): the weights of the main network's and the expert's
-    correction (module docstring: w_main = (1 - g) c, w_expert = g c); w_main is exactly 1
-    where the gate is shut."""
-    d = np.asarray(domain, dtype=float)
-    g = gate(p_c, R_c, depth, d)
-    s = 1.0 - _ramp_off(slab_ratio(R_c, h_A, h_B, depth), 0.0, d[8])
-    c = 1.0 - g * (1.0 - s)
-    return (1.0 - g) * c, g * c
+    correction, w_main = (1 - g) s, w_expert = g s (module docstring); s is the slab
+    scale (slab_scale with domain's r_slab; on A's top face when `overlap` is None).
+    domain None: no expert (g = 0, r_slab = R_SLAB)."""
+    if domain is None:
+        g, r_slab = np.zeros(len(R_c)), R_SLAB
+    else:
+        d = np.asarray(domain, dtype=float)
+        g, r_slab = gate(p_c, R_c, depth, d), d[8]
+    axes = None if overlap is None else slab_axes(R_c, overlap)
+    s = 1.0 - _ramp_off(slab_ratio(R_c, h_A, h_B, depth, axes), 0.0, r_slab)
+    return (1.0 - g) * s, g * s

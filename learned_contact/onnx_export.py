@@ -56,6 +56,7 @@ import numpy as np
 from learned_contact import onnx_graph as og
 from learned_contact.encodings import FLIPS, LENGTH_SCALE, PAPER_FRAME, SYMMETRY_BAND
 from learned_contact.errors import WeightsError
+from learned_contact.expert import R_SLAB
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
 from learned_contact.loading import load_weights
 from learned_contact.onnx_graph import IR_VERSION, OPSET, onnx_type
@@ -103,33 +104,53 @@ def _clip_outside(g, point, depth, hA):
     return g.where(out, g.clip(point, g.op("Neg", bound), bound), point)
 
 
-def _expert_weights(g, p_c, R_c, hA, hB, depth, domain):
+def _ramp_off(g, t, lo, hi):
+    """1 - smoothstep((t - lo) / (hi - lo)) (expert._ramp_off) of a tensor t."""
+    u = g.clip(g.div(g.sub(t, g.f(lo)), g.f(hi - lo)), g.f(0.0), g.f(1.0))
+    return g.sub(g.f(1.0), g.mul(g.mul(u, u), g.sub(g.f(3.0), g.mul(g.f(2.0), u))))
+
+
+def _slab_scale(g, R_c, hA, hB, depth, overlap, r_slab):
+    """(M, 1) the slab scale s = smoothstep(r / r_slab) of canonical rows (learned_contact.
+    expert.slab_ratio on expert.slab_axes): R_c (M, 3, 3), half extents hA, hB (M, 3) [m],
+    depth (M, 1) [m], overlap (M, 15) [m]; s = 1 where depth <= 0."""
+    A = g.op("Abs", R_c)
+    face = g.op("ArgMin", g.take(overlap, list(range(6)), 1), axis=1, keepdims=1)  # (M, 1)
+    on_A = g.op("Less", face, g.i(3))
+    f3 = g.op("Mod", face, g.i(3))
+    row_f = g.row_at(A, f3)  # (M, 3) |R_c[f3, :]|
+    col_f = g.sq(g.pick(A, g.op("Expand", g.unsq(f3, [1]), g.i([1, 3, 1])), 2), [2])  # (M, 3) |R_c[:, f3]|
+    k = g.where(on_A, f3, g.op("ArgMax", col_f, axis=1, keepdims=1))
+    j = g.where(on_A, g.op("ArgMax", row_f, axis=1, keepdims=1), f3)
+    col_j = g.sq(g.pick(A, g.op("Expand", g.unsq(j, [1]), g.i([1, 3, 1])), 2), [2])  # (M, 3) |R_c[i, j]|
+    masked = g.where(g.unsq(g.onehot(j, 3), [1]), g.f(-1.0), A)  # column j out of the running
+    m = g.sq(g.op("ArgMax", masked, axis=2, keepdims=1), [2])  # (M, 3) B's axis nearest A's i
+    terms = g.mul(col_j, g.op("Min", hA, g.pick(hB, m, 1)))
+    rise = g.mul(g.f(2.0), g.rsum(g.where(g.onehot(k, 3), g.f(0.0), terms), 1, keep=1))
+    positive = g.op("Greater", depth, g.f(0.0))
+    ratio = g.div(rise, g.where(positive, depth, g.f(1.0)))
+    return g.where(positive, g.sub(g.f(1.0), _ramp_off(g, ratio, 0.0, r_slab)), g.f(1.0))
+
+
+def _expert_weights(g, p_c, R_c, hA, hB, depth, overlap, domain):
     """(w_main, w_expert) (M, 1) each: learned_contact.expert.weights of canonical rows
-    p_c (M, 3), R_c (M, 3, 3), half extents hA, hB (M, 3), depth (M, 1) [m]; both
-    networks are evaluated on every row and blended (where the gate is shut the main
-    network's answer is kept exactly: 1 * y + 0 * y_expert)."""
-
-    def ramp_off(t, lo, hi):  # 1 - smoothstep((t - lo) / (hi - lo)) (expert._ramp_off)
-        u = g.clip(g.div(g.sub(t, g.f(lo)), g.f(hi - lo)), g.f(0.0), g.f(1.0))
-        return g.sub(g.f(1.0), g.mul(g.mul(u, u), g.sub(g.f(3.0), g.mul(g.f(2.0), u))))
-
+    p_c (M, 3), R_c (M, 3, 3), half extents hA, hB (M, 3), depth (M, 1) [m], overlap
+    (M, 15) [m]; both networks are evaluated on every row and blended (where the gate is
+    shut and the slab scale is 1 the main network's answer is kept exactly: 1 * y + 0 * y_expert).
+    domain None: no expert (w_expert None, r_slab = expert.R_SLAB)."""
+    if domain is None:
+        return _slab_scale(g, R_c, hA, hB, depth, overlap, R_SLAB), None
     col = lambda a, k: g.take(a, [k], 1)  # noqa: E731  (n, 1) column k of an (n, 3) array
     z_B = g.sq(g.take(R_c, [2], 2), [2])  # (M, 3) B's z axis
     sin_tilt = g.op("Sqrt", g.add(g.mul(col(z_B, 0), col(z_B, 0)), g.mul(col(z_B, 1), col(z_B, 1))))
     sin_yaw = g.op("Abs", g.sq(g.take(g.take(R_c, [1], 1), [0], 2), [2]))
     d = [float(v) for v in domain]
-    gate = ramp_off(depth, d[0], d[1])
+    gate = _ramp_off(g, depth, d[0], d[1])
     for t, (lo, hi) in ((sin_tilt, d[2:4]), (sin_yaw, d[4:6]), (g.op("Abs", col(p_c, 0)), d[6:8]),
                         (g.op("Abs", col(p_c, 1)), d[6:8])):
-        gate = g.mul(gate, ramp_off(t, lo, hi))
-    # the slab ratio (expert.slab_ratio): where depth <= 0 the scale s is 1
-    rise = g.mul(g.f(2.0), g.add(g.mul(g.op("Abs", col(z_B, 0)), g.op("Min", col(hA, 0), col(hB, 0))),
-                                 g.mul(g.op("Abs", col(z_B, 1)), g.op("Min", col(hA, 1), col(hB, 1)))))
-    positive = g.op("Greater", depth, g.f(0.0))
-    ratio = g.div(rise, g.where(positive, depth, g.f(1.0)))
-    s = g.where(positive, g.sub(g.f(1.0), ramp_off(ratio, 0.0, d[8])), g.f(1.0))
-    c = g.sub(g.f(1.0), g.mul(gate, g.sub(g.f(1.0), s)))
-    return g.mul(g.sub(g.f(1.0), gate), c), g.mul(gate, c)
+        gate = g.mul(gate, _ramp_off(g, t, lo, hi))
+    s = _slab_scale(g, R_c, hA, hB, depth, overlap, d[8])
+    return g.mul(g.sub(g.f(1.0), gate), s), g.mul(gate, s)
 
 
 def improved_graph(predictor):
@@ -156,9 +177,12 @@ def improved_graph(predictor):
              g.mul(depth, g.f(30.0)), edge, g.mul(corners_B, s), g.mul(g.clip(depth_B, g.f(-0.5), g.f(0.5)), ten),
              g.mul(g.clip(depth_A, g.f(-0.5), g.f(0.5)), ten), axis=1)
     y = og.mlp(g, x, predictor.mlp)
-    if predictor.expert is not None:  # the resting expert (learned_contact.expert.weights)
-        w_main, w_expert = _expert_weights(g, p_c, R_c, hA, hB, depth, predictor.expert_domain)
-        y = g.add(g.mul(w_main, y), g.mul(w_expert, og.mlp(g, x, predictor.expert)))
+    # the resting expert and the slab scale (learned_contact.expert.weights)
+    w_main, w_expert = _expert_weights(g, p_c, R_c, hA, hB, depth, overlap,
+                                       None if predictor.expert is None else predictor.expert_domain)
+    y = g.mul(w_main, y)
+    if w_expert is not None:
+        y = g.add(y, g.mul(w_expert, og.mlp(g, x, predictor.expert)))
     point_t = g.mul(coef, g.mul(sigma, g.add(point_est, g.mul(g.f(POINT_STEP), g.take(y, [0, 1, 2], 1)))))
     normal_t = g.mul(coef, g.mul(sigma, g.add(normal_est, g.take(y, [3, 4, 5], 1))))
     zeros = g.op("Expand", g.f(np.zeros((1, 3))), g.op("Shape", p0))

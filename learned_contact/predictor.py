@@ -63,13 +63,13 @@ class ContactPredictor(MLPPredictor):
             object.__setattr__(self, "_packed_expert", (*packed, np.ascontiguousarray(domain), self.expert is not None))
         super().__post_init__()
 
-    def _correction(self, x, p_c, R_c, h_A, h_B, depth):
-        """(n, 6) the network output for features x (n, F) of canonical poses: the main
-        network's, or where the expert's gate is open its weighted blend with the
-        expert's (learned_contact.expert.weights); each network only where it counts."""
-        if self.expert is None:
-            return self.mlp(x)
-        w_main, w_expert = weights(p_c, R_c, h_A, h_B, depth, self.expert_domain)
+    def _correction(self, x, p_c, R_c, h_A, h_B, depth, overlap):
+        """(n, 6) the correction for features x (n, F) of canonical poses p_c (n, 3) [m],
+        R_c (n, 3, 3), half extents (n, 3) [m], depth (n,) [m], overlaps (n, 15) [m]: the
+        main network's, where the expert's gate is open blended with the expert's, all
+        scaled by the slab scale (0 where B's face is parallel to A's: the prior's answer
+        exactly; learned_contact.expert.weights); each network only where it counts."""
+        w_main, w_expert = weights(p_c, R_c, h_A, h_B, depth, self.expert_domain, overlap)
         y = np.zeros((len(x), 6))
         main, expert = w_main > 0.0, w_expert > 0.0
         y[main] = w_main[main, None] * self.mlp(x[main])
@@ -92,8 +92,8 @@ class ContactPredictor(MLPPredictor):
             if len(rows) == 0:
                 continue
             p_c, R_c = reflect(sigma[rows], p[rows], R[rows])
-            x, point_est, normal_est = features(p_c, R_c, h_A[rows], 0.5 * sB[rows])
-            y = self._correction(x, p_c, R_c, h_A[rows], 0.5 * sB[rows], depth[rows])
+            x, point_est, normal_est, overlap = features(p_c, R_c, h_A[rows], 0.5 * sB[rows], with_overlap=True)
+            y = self._correction(x, p_c, R_c, h_A[rows], 0.5 * sB[rows], depth[rows], overlap)
             c = coef[rows, None]
             point[rows] += c * (sigma[rows] * (point_est + POINT_STEP * y[:, :3]))
             normal[rows] += c * (sigma[rows] * (normal_est + y[:, 3:6]))

@@ -30,6 +30,11 @@ Penetration depth is uniform in [0, 3 cm] in both.
   RESTING_LEVEL_TILT (1e-9 to 1e-3 rad, any direction) instead of roll and pitch uniform
   within 0.05 deg, where tilts below 1e-5 rad are rare: stacks settled under a centred
   load sit that level, and there the tilt across the patch is a fraction of the overlap.
+- "resting_wider": where landings and overhangs leave a box resting (issue 30; RESTING_WIDER):
+  "resting" with yaw uniform within +-6 deg, B's centre offset uniformly up to 3 m along
+  A's x (its length: a 40 ft box bridging two 20 ft ones sits 3 m off each) and 0.6 m
+  along A's y, and half of the poses exactly level (roll = pitch = 0: B's z is A's z to
+  the last bit), the others with roll and pitch uniform within +-0.05 deg.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ from learned_contact.errors import DatasetError
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
-DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level")  # append only: the index seeds the stream
+DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level", "resting_wider")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
 MAX_DEPTH = 0.03  # [m]
 RESTING_DEPTH = (5e-6, 5e-4)  # [m] log-uniform penetration of the "resting" distribution
@@ -53,6 +58,10 @@ RESTING_RANGES = {"resting": (RESTING_DEPTH, RESTING_TILT_DEG, RESTING_YAW_DEG, 
                   "resting_wide": ((5e-6, 1e-3), 0.1, 3.0, 0.5),
                   "resting_level": (RESTING_DEPTH, None, RESTING_YAW_DEG, RESTING_OFFSET)}
 RESTING_LEVEL_TILT = (1e-9, 1e-3)  # [rad] log-uniform tilt of "resting_level"
+# "resting_wider": depth range [m] log-uniform, roll/pitch bound [deg], yaw bound [deg], offset bounds
+# along A's x and y [m], fraction of exactly level poses
+RESTING_WIDER = {"depth": RESTING_DEPTH, "tilt_deg": RESTING_TILT_DEG, "yaw_deg": 6.0, "offset": (3.0, 0.6),
+                 "level_fraction": 0.5}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -117,7 +126,7 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
     default 5 deg) widen the ranges for held-out poses outside the training distribution
     (learned_contact/gates.py); the defaults are the training ranges and draw exactly the
     same random stream. "resting" has fixed ranges (module docstring) and refuses both."""
-    if distribution in RESTING_RANGES and (max_depth is not None or max_tilt_deg is not None):
+    if (distribution in RESTING_RANGES or distribution == "resting_wider") and (max_depth is not None or max_tilt_deg is not None):
         raise DatasetError(f"the {distribution!r} distribution has fixed ranges; max_depth and max_tilt_deg are "
                            "not accepted")
     max_depth = MAX_DEPTH if max_depth is None else max_depth
@@ -172,6 +181,17 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
         rpy[:, 2] = rng.uniform(-np.radians(yaw), np.radians(yaw), size=n)
         R_AB = rotation_from_rpy(rpy)
         xy = rng.uniform(-offset, offset, size=(n, 2))
+        base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
+        direction = np.tile([0.0, 0.0, 1.0], (n, 1))
+    elif distribution == "resting_wider":
+        w = RESTING_WIDER
+        depth = np.exp(rng.uniform(*np.log(w["depth"]), size=n))
+        rpy = np.zeros((n, 3))
+        tilted = rng.random(n) >= w["level_fraction"]
+        rpy[tilted, :2] = rng.uniform(-np.radians(w["tilt_deg"]), np.radians(w["tilt_deg"]), size=(tilted.sum(), 2))
+        rpy[:, 2] = rng.uniform(-np.radians(w["yaw_deg"]), np.radians(w["yaw_deg"]), size=n)
+        R_AB = rotation_from_rpy(rpy)
+        xy = rng.uniform(-np.array(w["offset"]), np.array(w["offset"]), size=(n, 2))
         base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
         direction = np.tile([0.0, 0.0, 1.0], (n, 1))
     else:

@@ -36,6 +36,7 @@ POINT_STEP = 0.5  # [m] per unit of the improved MLP's point outputs (predictor.
 # [m] encodings.SYMMETRY_BAND; a literal in this file, not an import: numba freezes globals
 # into the cached machine code of improved_predict and recompiles only when this file changes
 SYMMETRY_BAND = 0.02
+R_SLAB = 0.01  # learned_contact.expert.R_SLAB (a literal for the same reason): the slab scale without an expert
 _FRAME = np.ascontiguousarray(PAPER_FRAME)
 
 
@@ -217,13 +218,42 @@ def expert_gate(p_c, R_c, pen, domain):
 
 
 @njit(cache=True)
-def expert_weights(p_c, R_c, hA, hB, pen, domain):
-    """learned_contact.expert.weights for one canonical pose: (w_main, w_expert)."""
-    g = expert_gate(p_c, R_c, pen, domain)
-    rise = 2.0 * (abs(R_c[0, 2]) * min(hA[0], hB[0]) + abs(R_c[1, 2]) * min(hA[1], hB[1]))
-    s = 1.0 - _ramp_off(rise / pen, 0.0, domain[8]) if pen > 0.0 else 1.0
-    c = 1.0 - g * (1.0 - s)
-    return (1.0 - g) * c, g * c
+def slab_ratio(R_c, hA, hB, pen, overlap):
+    """learned_contact.expert.slab_ratio on the faces that meet (expert.slab_axes of
+    overlap (15,) [m]) for one canonical pose: rise / pen, inf where pen <= 0."""
+    face, best = 0, overlap[0]
+    for f in range(1, 6):
+        if overlap[f] < best:
+            face, best = f, overlap[f]
+    if face < 3:
+        k, j = face, 0
+        for m in range(1, 3):
+            if abs(R_c[face, m]) > abs(R_c[face, j]):
+                j = m
+    else:
+        j, k = face - 3, 0
+        for i in range(1, 3):
+            if abs(R_c[i, j]) > abs(R_c[k, j]):
+                k = i
+    rise = 0.0
+    for i in range(3):
+        m = -1
+        for q in range(3):
+            if q != j and (m < 0 or abs(R_c[i, q]) > abs(R_c[i, m])):
+                m = q
+        rise = rise + (0.0 if i == k else abs(R_c[i, j]) * min(hA[i], hB[m]))
+    rise = 2.0 * rise
+    return rise / pen if pen > 0.0 else np.inf
+
+
+@njit(cache=True)
+def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
+    """learned_contact.expert.weights for one canonical pose: (w_main, w_expert), the
+    slab scale included (no expert: g = 0 and r_slab = expert.R_SLAB)."""
+    g = expert_gate(p_c, R_c, pen, domain) if has_expert else 0.0
+    r_slab = domain[8] if has_expert else R_SLAB
+    s = 1.0 - _ramp_off(slab_ratio(R_c, hA, hB, pen, overlap), 0.0, r_slab)
+    return (1.0 - g) * s, g * s
 
 
 @njit(cache=True)
@@ -269,7 +299,7 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
             reflect(p[r], R[r], sigma, p_c, R_c)
             pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
             features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
-            w_main, w_expert = expert_weights(p_c, R_c, hA, hB, pen, domain) if has_expert else (1.0, 0.0)
+            w_main, w_expert = expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert)
             if w_main > 0.0:
                 mlp_forward(x, params, dims, act, h0, h1, y)
                 for c in range(6):
