@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+from testbed.bench.yard_budget import budget_section
 from testbed.document import Bullets, Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
 from testbed.gates.closed_loop import DISCRIMINATION
 from testbed.records import atomic_directory
@@ -38,7 +39,7 @@ def _leaderboard(data: dict) -> Section:
         table(["#", "predictor", "source", "good enough", "accuracy gates", "closed-loop scenes", "stacking point "
                "median [cm]", "resting point median [cm]", "general point p95 [cm]", "stacking normal p95 [deg]",
                "us/pair single", "us/pair batched", "batched / Drake point-pair"], rows),
-        Text("Good enough = every accuracy gate of learned_contact/gates.py and every closed-loop gate on every "
+        Text("Good enough = every accuracy gate of learned_contact/evaluation/gates.py and every closed-loop gate on every "
              "scene passes; 'within N known limits' = N of them pass only inside a band pinned around the shipped "
              "predictor's figure, where the target itself is not met (each verdict line lists them). Costs are "
              "measured side by side in this process (best of the rounds)."),
@@ -157,7 +158,8 @@ def _not_covered(data: dict) -> list:
 def sections(data: dict) -> list[Section]:
     good, lines = headline(data)
     head = Section(None, [Verdict(good, " | ".join(lines)), *_not_covered(data)], order=0)
-    return [head, _leaderboard(data), _accuracy(data), _cost(data), _scenes(data)]
+    budget = [budget_section(data["yard_budget"], order=3)] if data.get("yard_budget") else []  # after the cost
+    return [head, _leaderboard(data), _accuracy(data), _cost(data), *budget, _scenes(data)]
 
 
 def write_bench(out_dir: Path, data: dict) -> Path:

@@ -5,7 +5,7 @@
 
 Returns the dict written to bench.json: {"schema", "quick", "seed", "predictors": {spec:
 {"label", "kind", "name", "accuracy", "cost", "in_scene", "closed_loop", "verdict"}},
-"references", "leaderboard": [spec, ...] best first}. Every predictor is loaded first,
+"references", "yard_budget" (testbed.bench.yard_budget), "leaderboard": [spec, ...] best first}. Every predictor is loaded first,
 so a bad file fails before anything runs (WeightsError: exit 2 from the CLI).
 """
 
@@ -22,6 +22,7 @@ from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop, open_loop
+from testbed.bench.yard_budget import BudgetSettings, yard_budget
 from testbed.errors import TestbedError
 from testbed.gates import is_known_limit
 from testbed.scenario import load_scenario
@@ -117,6 +118,8 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     costs = cost_table(specs, data, repeats=2 if quick else 3)
     for s in specs:
         entries[s]["cost"] = costs["predictors"][s]
+    say("yard budget: pairs per 1 ms step beside the host engine's own step (96-container yard)")
+    budget = yard_budget(specs, BudgetSettings(repeats=2 if quick else 3))
     for s in specs:
         entries[s]["in_scene"], entries[s]["not_covered"] = {}, _uncovered_sets(entries[s]["accuracy"])
         for scene, duration in (QUICK_OPEN_SCENES if quick else OPEN_SCENES):
@@ -147,7 +150,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
         entries[s]["known_limits"] = known_limits(entries[s])
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
-           "references": costs["references"], "leaderboard": board, "judged": judged(specs),
+           "references": costs["references"], "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
            "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
 

@@ -114,8 +114,9 @@ class BudgetSettings:
 
 def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
     """{'step_s', 'host' (host_step's dict), 'predictors': {spec: {'label', 'batch_sizes',
-    'call_s' (per size), 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'}}}
-    for each predictor in `specs` (learned_contact.sources strings), measured side by side."""
+    'call_s' (per size), 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'} or,
+    when its calls failed, {'label', 'why'}}} for each predictor in `specs` (learned_contact.sources
+    strings), measured side by side."""
     host = settings.host if settings.host is not None else host_step(settings.host_size, step_s=settings.step_s)
     out = {}
     for spec in specs:
@@ -125,7 +126,12 @@ def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
         if np.abs(supported - np.asarray(CONTAINER_TYPES[type_name].size)).max(axis=1).min() > 1e-3:
             type_name = next((n for n, t in CONTAINER_TYPES.items()
                               if np.abs(supported - np.asarray(t.size)).max(axis=1).min() <= 1e-3), type_name)
-        seconds = call_costs(pred, settings.batch_sizes, settings.repeats, type_name)
+        try:
+            seconds = call_costs(pred, settings.batch_sizes, settings.repeats, type_name)
+        except Exception as e:  # noqa: BLE001 - a model that cannot answer these poses: a row that says so
+            out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
+                         "why": f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"}
+            continue
         fixed, per_pair = fit_call_cost(settings.batch_sizes, seconds)
         spare = settings.step_s - host["host_step_s"]
         out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "call_s": seconds,
@@ -151,7 +157,8 @@ def budget_section(budget: dict, order: int = 45) -> Section:
         return "-" if v is None else str(v)
 
     rows = [[p["label"], f"{p['fixed_s'] * 1e6:.1f}", f"{p['per_pair_s'] * 1e6:.3f}", n(p["pairs_within_step"]),
-             n(p["pairs_beside_loop"])] for p in budget["predictors"].values()]
+             n(p["pairs_beside_loop"])] if "why" not in p else [p["label"], "-", "-", f"not measured: {p['why']}", "-"]
+            for p in budget["predictors"].values()]
     return Section("Yard budget", [key, table(["predictor", "fixed cost per call [us]", "per pair [us]",
                                                "pairs within the step beside the host",
                                                "pairs beside the host and the learned system"], rows)], order=order)

@@ -45,6 +45,11 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
         assert set(e["closed_loop"]) == {"two_stack", "crane_misaligned", "overhang_tip"}
         assert e["cost"]["batched_s_per_pair"] > 0 and e["cost"]["first_call_s"] > 0
         assert e["verdict"].startswith("GOOD ENOUGH" if e["good_enough"] else "NOT GOOD ENOUGH")
+    # the yard budget (issue 29): pairs answered within a 1 ms step beside the host's measured step
+    budget = data["yard_budget"]
+    assert set(budget["predictors"]) == set(specs) and budget["host"]["host_step_s"] > 0
+    assert all(b.get("pairs_within_step") is not None or b.get("why") for b in budget["predictors"].values())
+    assert "## Yard budget" in (out / "summary.md").read_text()
     # the shipped predictor beats both simple alternatives on held-out stacking poses, and
     # the prior is its own reference (ratio 1 by construction)
     improved, line = data["predictors"]["improved"], data["predictors"][centre_line]
@@ -155,7 +160,7 @@ def test_learned_gates_case_reports_an_added_predictor(centre_line):
 
 
 def test_query_study_times_an_added_predictor(centre_line):
-    from learned_contact.gates import held_out
+    from learned_contact.evaluation.gates import held_out
     from testbed.studies.query.methods.base import MethodOptions
     from testbed.studies.query.methods.learned import build
 
