@@ -215,8 +215,9 @@ def format_engine_figures(f: dict) -> str:
     other = ("" if f["hydroelastic_modulus_Pa"] == KAPPA_MODULUS else
              f"; `testbed compare` without --engine runs the learned loop and its Drake truth at the learned law's "
              f"{KAPPA_MODULUS:.0e} Pa: its figures are against another truth")
+    what = f"the {f['params']} predictor" if engine(name).learned else f"{f['params']} contact parameters"
     lines = [
-        f"scene {f['scene']} in {label} {f[f'{name}_version']} ({f['params']} contact parameters): "
+        f"scene {f['scene']} in {label} {f[f'{name}_version']} ({what}): "
         f"{'DIVERGED' if f['diverged'] else 'ran'} ({f[f'simulated_s_{name}']:g} of {f['duration_s']:g} s)",
         *error_lines(f, label, f[f"wall_per_sim_s_{name}"]),
         f"  Drake's containers at a hydroelastic modulus of {f['hydroelastic_modulus_Pa']:.0e} Pa (the scene's ground "

@@ -104,3 +104,21 @@ def test_a_step_the_explicit_law_cannot_take():
         engine("mujoco_learned").check(coarse)
     run = engine("mujoco_learned").run(coarse, duration=0.1, contacts=True)
     assert "unstable" in run.trajectory.error and run.trajectory.simulated_s == 0 and len(run.contacts["step"]) == 0
+
+
+def test_vectorised_wind_is_the_mujoco_engines():
+    """WindForces on all containers at once equals run.py's wind_force_W per container (applied at C)."""
+    from testbed.engines.mujoco.run import wind_force_W
+    from testbed.engines.mujoco_learned.loop import WindForces
+    from testbed.geometry.rotations import rotation_from_quaternion
+
+    s = load_scenario("yard_wind")
+    free = [c for c in s.containers if not c.fixed][:4]
+    sizes = np.array([c.container_type().size for c in free], dtype=float)
+    com = np.array([[0.3, -0.1, 0.2]] * len(free))
+    q = np.random.default_rng(1).standard_normal((len(free), 4))
+    R = rotation_from_quaternion(q / np.linalg.norm(q, axis=1, keepdims=True))
+    got = WindForces(s.effects.wind, sizes, com).wrenches(R, 0.7)
+    for k in range(len(free)):
+        f = wind_force_W(s.effects.wind, sizes[k], R[k], 0.7)
+        np.testing.assert_allclose(got[k], np.concatenate([f, np.cross(-(R[k] @ com[k]), f)]), rtol=1e-12, atol=1e-9)

@@ -33,7 +33,8 @@ Drake-hosted loop does; compare judges it against Drake at that modulus.
 
 Costs (summary['cost'], [s] over the timed steps): mujoco_s (mj_step1 + mj_step2), broad_s
 (state extraction, broad phase, near pairs, gather), predict_s (the predictor's call),
-law_s (force law, anchors, xfrc_applied, wind, crane). Recording is timed apart.
+law_s (force law, anchors, xfrc_applied), effects_s (wind, the crane's ropes). Recording is
+timed apart.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from testbed import variants
 from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, mujoco_module
-from testbed.engines.mujoco.run import _ContactReducer, steps_table, wind_force_W
+from testbed.engines.mujoco.run import _ContactReducer, steps_table
 from testbed.errors import ScenarioError
 from testbed.geometry.boxes import box_box_signed_distance
 
@@ -116,6 +117,30 @@ class LearnedRun:
     contacts: dict
     summary: dict
     mjcf: str
+
+
+class WindForces:
+    """The wind effect's force on every free container at once (vectorised; the same law as
+    testbed/engines/mujoco/run.py's wind_force_W, per container: pressure 0.5 rho v^2 Cd on the
+    projected area, ramped over ramp_time), applied at C: rows of xfrc_applied [force, torque
+    about the COM] in W. sizes (k, 3) [m] full extents, com_B (k, 3) [m] C -> COM in C."""
+
+    def __init__(self, config, sizes: np.ndarray, com_B: np.ndarray):
+        import math
+
+        angle = math.radians(config.direction_deg)
+        self.direction = np.array([math.cos(angle), math.sin(angle), 0.0])
+        self.pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient  # [Pa]
+        self.ramp = config.ramp_time
+        self.faces = np.column_stack([sizes[:, 1] * sizes[:, 2], sizes[:, 0] * sizes[:, 2], sizes[:, 0] * sizes[:, 1]])
+        self.com_B = com_B
+
+    def wrenches(self, R: np.ndarray, t: float) -> np.ndarray:
+        """(k, 6) [N, N m] at time t [s] for the containers' rotations R_WC (k, 3, 3)."""
+        scale = 1.0 if self.ramp <= 0 else min(1.0, t / self.ramp)
+        area = np.einsum("ki,ki->k", self.faces, np.abs(np.einsum("kji,j->ki", R, self.direction)))  # [m^2]
+        f = (scale * self.pressure * area)[:, None] * self.direction
+        return np.hstack([f, np.cross(-np.einsum("kij,kj->ki", R, self.com_B), f)])
 
 
 class _LearnedCrane(CraneRopes):
@@ -256,9 +281,9 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     qidx, vidx = qadr[:, None] + np.arange(7), vadr[:, None] + np.arange(6)
     law = LearnedContact(prepared, model)
     offset = 1 if s.ground else 0
-    wind = s.effects.wind
-    sizes = [c.container_type().size for c in free_specs]
-    com_B = np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3)
+    wind = None if s.effects.wind is None else WindForces(
+        s.effects.wind, np.array([c.container_type().size for c in free_specs], dtype=float).reshape(-1, 3),
+        np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3))
     crane = None
     if s.effects.crane is not None:
         j = tr.free_names.index(s.effects.crane.container)
@@ -278,7 +303,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         mj.mj_resetData(model, data)
     mj.mj_forward(model, data)
     qpos, qvel, index = [data.qpos[qidx].copy()], [data.qvel[vidx].copy()], [0]
-    mujoco_s, other_s, record_s, steps_done, diverged = 0.0, 0.0, 0.0, 0, False
+    mujoco_s, effects_s, record_s, steps_done, diverged = 0.0, 0.0, 0.0, 0, False
     for i in range(n_steps):
         t0 = time.perf_counter()
         mj.mj_step1(model, data)
@@ -286,18 +311,14 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         law.apply(data)
         t2 = time.perf_counter()
         if wind is not None:
-            for k, body in enumerate(body_ids):
-                R = data.xmat[body].reshape(3, 3)
-                f = wind_force_W(wind, sizes[k], R, data.time)
-                data.xfrc_applied[body, :3] += f
-                data.xfrc_applied[body, 3:] += np.cross(-(R @ com_B[k]), f)  # applied at C, not the COM
+            data.xfrc_applied[body_ids] += wind.wrenches(data.xmat[body_ids].reshape(-1, 3, 3), data.time)
         if crane is not None:
             crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
         t3 = time.perf_counter()
         mj.mj_step2(model, data)
         t4 = time.perf_counter()
         mujoco_s += (t1 - t0) + (t4 - t3)
-        other_s += t3 - t2
+        effects_s += t3 - t2
         steps_done = i + 1
         if data.warning[int(mj.mjtWarning.mjWARN_BADQACC)].number > 0 or not np.all(np.isfinite(data.qpos)):
             diverged = True
@@ -318,8 +339,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         qvel.append(data.qvel[vidx].copy())
         index.append(steps_done)
     broad_s, predict_s, law_s = (float(x) for x in law.costs[:3])
-    law_s += other_s
-    wall = mujoco_s + broad_s + predict_s + law_s
+    wall = mujoco_s + broad_s + predict_s + law_s + effects_s
     steps = steps_table(model, body_ids, free_specs, np.array(qpos), np.array(qvel), np.array(index), h)
     contacts = reducer.table()
     sim_time = steps_done * h
@@ -332,9 +352,10 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         "wall_time_s": wall, "wall_per_sim_s": wall / sim_time if sim_time > 0 else float("nan"),
         "real_time_factor": sim_time / wall if wall > 0 else float("inf"), "record_s": record_s,
         "cost": {"mujoco_s": mujoco_s, "broad_s": broad_s, "predict_s": predict_s, "law_s": law_s,
+                 "effects_s": effects_s,
                  "ms_per_step": {"mujoco": mujoco_s * per_step, "broad_phase": broad_s * per_step,
                                  "predictor": predict_s * per_step, "force_law": law_s * per_step,
-                                 "total": wall * per_step},
+                                 "wind_crane": effects_s * per_step, "total": wall * per_step},
                  "predict_calls": int(law.costs[4]), "predict_pairs": int(law.costs[5])},
         "max_penetration_m": float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0,
         "stability_max": max((max(r["normal"], r["tilt"]) for r in prepared.effect.stability), default=0.0),
@@ -344,7 +365,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
                     free_names=tr.free_names, mjcf=tr.mjcf)
     trajectory = trajectory_of(run, every)
     trajectory.error = "the MuJoCo-hosted learned loop's state went non-finite" if diverged else ""
-    trajectory.costs = {"calc_s": broad_s + predict_s + law_s, "predict_s": predict_s, "record_s": record_s,
+    trajectory.costs = {"calc_s": broad_s + predict_s + law_s + effects_s, "predict_s": predict_s, "record_s": record_s,
                         "calc_calls": steps_done, "predict_calls": int(law.costs[4]),
                         "predict_pairs": int(law.costs[5])}
     return LearnedRun(trajectory, contacts, summary, tr.mjcf)
