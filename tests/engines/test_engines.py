@@ -15,12 +15,15 @@ from testbed.simulation import advance
 
 
 def test_the_registry_holds_drake_the_learned_loop_and_mujoco():
-    assert list(engines()) == ["drake", "learned", "mujoco"]
+    assert list(engines()) == ["drake", "learned", "mujoco", "mujoco_learned"]
     assert [n for n, e in engines().items() if e.reference] == ["drake"]
     assert [n for n, e in engines().items() if e.gated] == ["learned"]
-    assert list(candidates()) == ["learned", "mujoco"] and [e.name for e in alternatives()] == ["mujoco"]
+    assert [n for n, e in engines().items() if e.learned] == ["mujoco_learned"]
+    assert list(candidates()) == ["learned", "mujoco", "mujoco_learned"]
+    assert [e.name for e in alternatives()] == ["mujoco", "mujoco_learned"]
     assert engine("mujoco").param_sets == ("matched", "default")
-    with pytest.raises(UnknownChoiceError, match="unknown engine 'bullet'; expected one of: drake, learned, mujoco"):
+    with pytest.raises(UnknownChoiceError,
+                       match="unknown engine 'bullet'; expected one of: drake, learned, mujoco, mujoco_learned"):
         engine("bullet")
 
 
