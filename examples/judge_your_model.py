@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact import load_predictor
-from learned_contact.poses import relative_pose, rotation_from_rpy
+from learned_contact.predictors.poses import relative_pose, rotation_from_rpy
 from testbed.compare import compare_scene
 from testbed.validation.compare_verdict import judge
 

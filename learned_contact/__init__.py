@@ -11,12 +11,12 @@ Every predictor answers learned_contact.interface.Predictor; learned_contact.sou
 the catalogue of sources.
 
 Importing this package (and predicting) never imports torch or Drake; training
-(learned_contact.training) needs torch, labelling (learned_contact.labels) needs Drake.
+(learned_contact.training.train) needs torch, labelling (learned_contact.data.labels) needs Drake.
 """
 
 from learned_contact.errors import PredictorDomainError, PredictorInputError, PredictorOutputError, WeightsError
 from learned_contact.interface import Predictor
-from learned_contact.predictor import ContactPredictor
+from learned_contact.predictors.improved import ContactPredictor
 from learned_contact.sources import load_predictor
 
 __all__ = ["ContactPredictor", "Predictor", "PredictorDomainError", "PredictorInputError", "PredictorOutputError",

@@ -25,7 +25,7 @@ class WeightsError(TestbedError):
 
 class PredictorOutputError(TestbedError, ValueError):
     """A model's answers the bench cannot use: wrong shapes, NaN or infinite values, or
-    normals further than learned_contact.external.NORMAL_LENGTH_TOLERANCE from unit
+    normals further than learned_contact.predictors.external.NORMAL_LENGTH_TOLERANCE from unit
     length (the message names the model and counts the poses)."""
 
 
@@ -41,5 +41,5 @@ def onnx_file_error(path, field: str, problem: str) -> WeightsError:
 
 
 class PredictorTimeoutError(PredictorOutputError):
-    """A model's call that ran past learned_contact.limits' call_timeout_s and was stopped
+    """A model's call that ran past learned_contact.predictors.limits' call_timeout_s and was stopped
     (the message names the model and the bound's flag)."""

@@ -1,6 +1,6 @@
 """The one interface every contact predictor answers, and the input checks they share.
 
-    pred = load_predictor("improved" | "paper" | path)       # learned_contact.loading
+    pred = load_predictor("improved" | "paper" | path)       # learned_contact.predictors.loading
     point_A, normal_A = pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
     depth = pred.depth(p_AB, R_AB, size_A=size_A, size_B=size_B)
 

@@ -20,11 +20,11 @@ import re
 from pathlib import Path
 from typing import Callable
 
-from learned_contact import limits
 from learned_contact.errors import WeightsError
-from learned_contact.loading import SHIPPED, load_weights
-from learned_contact.onnx_model import check_file, load_onnx
-from learned_contact.python_model import is_python_spec, load_python
+from learned_contact.predictors import limits
+from learned_contact.predictors.loading import SHIPPED, load_weights
+from learned_contact.predictors.onnx_model import check_file, load_onnx
+from learned_contact.predictors.python_model import is_python_spec, load_python
 
 DEFAULT = "improved"
 SHIPPED_NAMES = tuple(SHIPPED)  # ("improved", "paper")
@@ -101,7 +101,7 @@ def load_predictor(spec=None, *, compiled: bool = True):
 
     compiled: for the shipped kinds, run the numba kernels (True) or the numpy reference
     (False); other sources run as they are. An ONNX or Python model is first loaded and
-    probed in a child process under learned_contact.limits' bounds (time, memory, nodes), and
+    probed in a child process under learned_contact.predictors.limits' bounds (time, memory, nodes), and
     runs here under its per-call bound. A model is loaded once per process: the same spec (and
     the same file, unchanged) returns the same object. Raises WeightsError naming the file (or
     module:attribute), the field or bound and what was expected.

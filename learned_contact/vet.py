@@ -1,4 +1,4 @@
-"""The child process of learned_contact.limits.vet_in_child: `python -m learned_contact.vet
+"""The child process of learned_contact.predictors.limits.vet_in_child: `python -m learned_contact.vet
 SPEC LIMITS_JSON` loads the model SPEC (an ONNX file or module:attribute) with its load-time
 checks and probe, and prints nothing on success (exit 0) or one line `refused: <message as a JSON string>`
 (exit 3). Anything the model's code raises or does (SystemExit included) is reported as
@@ -11,8 +11,8 @@ import json
 import os
 import sys
 
-from learned_contact import limits
 from learned_contact.errors import WeightsError
+from learned_contact.predictors import limits
 from learned_contact.sources import load_unvetted
 
 

@@ -12,7 +12,7 @@ import argparse
 import re
 import sys
 
-from learned_contact.limits import ModelLimits, set_limits
+from learned_contact.predictors.limits import ModelLimits, set_limits
 from testbed import commands
 from testbed.errors import SimulationError, TestbedError
 
@@ -39,7 +39,7 @@ def _positive(kind):
 
 
 def add_model_limits(parser: argparse.ArgumentParser) -> None:
-    """The bounds on untrusted models (learned_contact.limits), on every command."""
+    """The bounds on untrusted models (learned_contact.predictors.limits), on every command."""
     d = ModelLimits()
     group = parser.add_argument_group("bounds on a model the testbed did not ship (ONNX, module:attribute)")
     group.add_argument("--model-load-timeout", type=_positive(float), default=d.load_timeout_s, metavar="S",

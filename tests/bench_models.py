@@ -78,7 +78,7 @@ class GeometricModel:
     name = "geometric"
 
     def __init__(self):
-        from learned_contact.gates import GeometricPrior
+        from learned_contact.evaluation.gates import GeometricPrior
 
         self._prior = GeometricPrior()
 

@@ -11,7 +11,7 @@ without rotation, and the overhang lies along A's +x.
   along A's +x (toward the overhang); bias_away_30cm: 30 cm along A's -x (away from it);
 - normal_1deg: the improved predictor with every normal tilted 1 deg about A's y, its
   top toward A's +x (toward the overhang);
-- prior: the improved predictor's geometric estimate alone (learned_contact.gates.GeometricPrior);
+- prior: the improved predictor's geometric estimate alone (learned_contact.evaluation.gates.GeometricPrior);
 - drake_point: Drake point contact's answer (ComputePointPairPenetration: the midpoint of
   the two witness points, its normal), the geometric prior's answer where Drake finds none;
 - drake_hydroelastic: not an alternative but the reference, Drake hydroelastic's own static
@@ -28,7 +28,7 @@ from testbed.validation.sensitivity import Biased, TiltedNormal
 
 
 class Prior(GeometricModel):
-    """learned_contact.gates.GeometricPrior: the improved predictor's network correction zeroed."""
+    """learned_contact.evaluation.gates.GeometricPrior: the improved predictor's network correction zeroed."""
 
     name = "geometric prior alone"
 
@@ -83,7 +83,7 @@ class DrakePoint:
 class DrakeHydroelastic(DrakePoint):
     """Drake hydroelastic's static answer at each pose: the contact surface's centre of pressure
     and pressure-weighted normal (testbed.contact.surfaces.static_pressure), as the training
-    labels take them (learned_contact/labels.py); the geometric prior's answer where there is
+    labels take them (learned_contact/data/labels.py); the geometric prior's answer where there is
     no surface. The centre of pressure does not depend on the modulus (pressure scales with it)."""
 
     name = "Drake hydroelastic's static answer"

@@ -28,15 +28,15 @@ from learned_contact.compiled.prior import (
     reflect,
     sat_depth,
 )
-from learned_contact.encodings import PAPER_FRAME
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE
+from learned_contact.model.encodings import PAPER_FRAME
 
 ACTIVATION_CODES = {"tanh": 0, "silu": 1, "relu": 2}
 POINT_STEP = 0.5  # [m] per unit of the improved MLP's point outputs (predictor.POINT_STEP)
 # [m] encodings.SYMMETRY_BAND; a literal in this file, not an import: numba freezes globals
 # into the cached machine code of improved_predict and recompiles only when this file changes
 SYMMETRY_BAND = 0.02
-R_SLAB = 0.01  # learned_contact.expert.R_SLAB (a literal for the same reason): the slab scale without an expert
+R_SLAB = 0.01  # learned_contact.model.expert.R_SLAB (a literal for the same reason): the slab scale without an expert
 _FRAME = np.ascontiguousarray(PAPER_FRAME)
 
 
@@ -203,14 +203,14 @@ def features(x, p_c, R_c, hA, hB, overlap, point_est, normal_est, pen, k, weight
 
 @njit(cache=True, inline="always")
 def _ramp_off(t, t_in, t_out):
-    """learned_contact.expert._ramp_off for one value."""
+    """learned_contact.model.expert._ramp_off for one value."""
     u = min(max((t - t_in) / (t_out - t_in), 0.0), 1.0)
     return 1.0 - u * u * (3.0 - 2.0 * u)
 
 
 @njit(cache=True)
 def expert_gate(p_c, R_c, pen, domain):
-    """learned_contact.expert.gate for one canonical pose."""
+    """learned_contact.model.expert.gate for one canonical pose."""
     sin_tilt = math.hypot(R_c[0, 2], R_c[1, 2])
     return (_ramp_off(pen, domain[0], domain[1]) * _ramp_off(sin_tilt, domain[2], domain[3])
             * _ramp_off(abs(R_c[1, 0]), domain[4], domain[5]) * _ramp_off(abs(p_c[0]), domain[6], domain[7])
@@ -219,7 +219,7 @@ def expert_gate(p_c, R_c, pen, domain):
 
 @njit(cache=True)
 def slab_ratio(R_c, hA, hB, pen, overlap):
-    """learned_contact.expert.slab_ratio on the faces that meet (expert.slab_axes of
+    """learned_contact.model.expert.slab_ratio on the faces that meet (expert.slab_axes of
     overlap (15,) [m]) for one canonical pose: rise / pen, inf where pen <= 0."""
     face, best = 0, overlap[0]
     for f in range(1, 6):
@@ -248,7 +248,7 @@ def slab_ratio(R_c, hA, hB, pen, overlap):
 
 @njit(cache=True)
 def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
-    """learned_contact.expert.weights for one canonical pose: (w_main, w_expert), the
+    """learned_contact.model.expert.weights for one canonical pose: (w_main, w_expert), the
     slab scale included (no expert: g = 0 and r_slab = expert.R_SLAB)."""
     g = expert_gate(p_c, R_c, pen, domain) if has_expert else 0.0
     r_slab = domain[8] if has_expert else R_SLAB
@@ -262,7 +262,7 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
     sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
     the resting expert (eparams, edims, eact: pack_mlp of it; domain (9,): its gate,
-    learned_contact.expert.weights), each network evaluated only where its weight is not 0.
+    learned_contact.model.expert.weights), each network evaluated only where its weight is not 0.
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)

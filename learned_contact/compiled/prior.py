@@ -1,9 +1,9 @@
-"""Compiled box geometry, one pose at a time: the numba twin of learned_contact.prior
+"""Compiled box geometry, one pose at a time: the numba twin of learned_contact.model.prior
 (sat_overlap, sat_normal, patch_estimate) and encodings (canonicalise, features).
 
 Every function works on one pose with caller-provided scratch arrays, so a batched
 kernel allocates once per call, not once per pose. Frames and units as in
-learned_contact.prior: p (3,) [m] is B's centre in A, R (3, 3) B's axes in A
+learned_contact.model.prior: p (3,) [m] is B's centre in A, R (3, 3) B's axes in A
 (columns), hA, hB (3,) half extents [m]. The operation order follows the numpy
 reference so that both agree to rounding (tests/learned/test_learned_compiled.py: 1e-9).
 """

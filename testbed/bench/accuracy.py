@@ -1,27 +1,27 @@
 """The bench's accuracy section: every predictor on the same held-out pose sets.
 
-Sets (labelled by Drake's static hydroelastic contact, learned_contact.labels; the
+Sets (labelled by Drake's static hydroelastic contact, learned_contact.data.labels; the
 seeds the accuracy gates use, so the figures are the gates' own):
-- "stacking", "general", "outside": learned_contact.gates.held_out (the training
+- "stacking", "general", "outside": learned_contact.evaluation.gates.held_out (the training
   distributions re-drawn from unused seeds, and stacking poses beyond the training
   ranges);
-- "resting": where shipped stacks sit at 1e9 Pa (learned_contact.sampling's "resting"
+- "resting": where shipped stacks sit at 1e9 Pa (learned_contact.data.sampling's "resting"
   distribution: overlap log-uniform from 5 um to 0.5 mm, roll and pitch within 0.05 deg,
   yaw within 2 deg, offsets up to 0.4 m), the gates' own resting set.
 
 Per predictor and set: point error [m] and normal error [deg], median / p95 / p99, and
 the ratio of each to the geometric prior's on the same poses (learned_contact.gates.
 GeometricPrior; < 1: the model improves on geometry alone). The accuracy gates of
-learned_contact.gates are judged for every predictor with the same thresholds.
+learned_contact.evaluation.gates are judged for every predictor with the same thresholds.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.gates import GeometricPrior, gate_figures, held_out, verdicts
+from learned_contact.evaluation.gates import GeometricPrior, gate_figures, held_out, verdicts
+from learned_contact.evaluation.metrics import point_normal_errors
 from learned_contact.interface import SIZE_TOLERANCE
-from learned_contact.metrics import point_normal_errors
 
 SETS = ("stacking", "general", "outside", "resting")
 STATS = (("median", 50), ("p95", 95), ("p99", 99))
@@ -55,7 +55,7 @@ def supported_rows(predictor, ds) -> np.ndarray:
 def covered(predictor, data: dict) -> tuple[dict, dict]:
     """(the sets cut to the poses the predictor declares it answers, {set: (kept, of)}): a
     model for one container type is judged on its own type's poses; a set it does not
-    cover at all is left out (its gates with it: learned_contact.gates.verdicts)."""
+    cover at all is left out (its gates with it: learned_contact.evaluation.gates.verdicts)."""
     kept, counts = {}, {}
     for name, ds in data.items():
         rows = supported_rows(predictor, ds)
@@ -68,7 +68,7 @@ def covered(predictor, data: dict) -> tuple[dict, dict]:
 
 
 def accuracy(predictor, data: dict, seed: int) -> dict:
-    """{"sets": {set: figures + "*_vs_prior" ratios + "n"}, "gates": learned_contact.gates
+    """{"sets": {set: figures + "*_vs_prior" ratios + "n"}, "gates": learned_contact.evaluation.gates
     verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one predictor
     on the poses of `data` (pose_sets) it declares it answers (`covered`)."""
     data, counts = covered(predictor, data)

@@ -7,7 +7,7 @@ answering one pose, in a fresh Python process: what a simulator pays at start-up
 numba's on-disk cache as this machine has it). References measured in the same run:
 Drake's point-pair query (set the pose, then query: what the labels cost per pair) and the
 shipped improved predictor's compiled path; every figure is also given as a ratio to those
-(< 1: cheaper). The timing itself is learned_contact.cost's (the query study and the
+(< 1: cheaper). The timing itself is learned_contact.evaluation.cost's (the query study and the
 benchmark script use the same).
 """
 
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.cost import drake_point_pair_cost, first_call_s, one_blas_thread, predictor_cost as _timed
+from learned_contact.evaluation.cost import drake_point_pair_cost, first_call_s, one_blas_thread, predictor_cost as _timed
 from learned_contact.sources import DEFAULT, load_predictor
 from testbed.bench.accuracy import covered
 

@@ -1,6 +1,6 @@
 """`testbed export-onnx NAME_OR_PATH --out FILE.onnx [--name NAME]`: export a shipped
 predictor ("improved", "paper") or a weights .npz to an ONNX file with the bench's
-contract (learned_contact.onnx_export), then report how closely the file agrees with
+contract (learned_contact.export.onnx_export), then report how closely the file agrees with
 the compiled predictor on held-out poses."""
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from learned_contact.onnx_export import agreement, export_onnx
+    from learned_contact.export.onnx_export import agreement, export_onnx
     from testbed.errors import TestbedError
 
     if args.probe < 1:

@@ -23,7 +23,7 @@ def run(args) -> int:
         from testbed.errors import OptionalDependencyError
 
         raise OptionalDependencyError("torch", "testbed train", "train") from None
-    from learned_contact.training import train_default
+    from learned_contact.training.train import train_default
 
     out = Path(args.out) if args.out else Path("reports") / f"train-{timestamp()}"
     metrics = train_default(out, seed=args.seed, progress=not args.quiet)

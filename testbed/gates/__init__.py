@@ -8,7 +8,7 @@ implementation of that band; a known limit carries it as the `known_limit` field
 name ends with KNOWN_LIMIT, for readers of metrics.json).
 
 Every gate kind lives here or beside it: testbed.gates.closed_loop (the learned model in the
-loop), the scene case's in-scene gate and learned_contact.gates (accuracy on held-out poses)
+loop), the scene case's in-scene gate and learned_contact.evaluation.gates (accuracy on held-out poses)
 build on these.
 """
 

@@ -2,7 +2,7 @@
 face on a face: the overlap is a slab of one depth) the improved predictor answers its
 geometric estimate, the centre of the overlap rectangle with A's face normal, on all three
 paths (numpy, numba, ONNX), at any yaw and offset, and hands over to the learned answer
-continuously as the tilt grows (learned_contact.expert: the slab scale)."""
+continuously as the tilt grows (learned_contact.model.expert: the slab scale)."""
 
 from __future__ import annotations
 
@@ -11,12 +11,12 @@ import pytest
 
 from learned_contact import load_predictor
 from learned_contact.compiled import kernels
-from learned_contact.encodings import features, reflect
-from learned_contact.expert import R_SLAB, slab_axes, slab_ratio
-from learned_contact.gates import GeometricPrior
-from learned_contact.labels import make_dataset
-from learned_contact.metrics import point_normal_errors
-from learned_contact.onnx_export import export_onnx, probe_poses
+from learned_contact.data.labels import make_dataset
+from learned_contact.evaluation.gates import GeometricPrior
+from learned_contact.evaluation.metrics import point_normal_errors
+from learned_contact.export.onnx_export import export_onnx, probe_poses
+from learned_contact.model.encodings import features, reflect
+from learned_contact.model.expert import R_SLAB, slab_axes, slab_ratio
 from learned_contact.sources import load_predictor as load_source
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy

@@ -22,8 +22,9 @@ import hostile_models as hm
 import numpy as np
 import pytest
 
-from learned_contact import WeightsError, limits, load_predictor
+from learned_contact import WeightsError, load_predictor
 from learned_contact.errors import PredictorTimeoutError
+from learned_contact.predictors import limits
 from testbed.errors import ScenarioError
 from testbed.scenario import load_scenario
 
@@ -196,7 +197,7 @@ def test_a_call_that_hangs_after_loading_is_stopped_and_named(bounded):
 def test_an_onnx_call_that_loops_is_stopped_in_process(tmp_path, bounded):
     """The Loop model loaded without its child (as learned_contact.vet does): each run is
     stopped by onnxruntime's terminate flag at the call bound."""
-    from learned_contact.onnx_model import load_onnx
+    from learned_contact.predictors.onnx_model import load_onnx
 
     path = hm.loop_forever_onnx(tmp_path)
     t0 = time.perf_counter()

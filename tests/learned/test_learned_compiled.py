@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from learned_contact import PredictorInputError, load_predictor
+from learned_contact.data.sampling import sample
 from learned_contact.interface import DOMAIN_DEPTH
-from learned_contact.sampling import sample
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy
 
@@ -176,7 +176,7 @@ def test_a_fresh_process_loads_cached_machine_code():
 
 def test_compiled_features_equal_numpy_features(held_out):
     from learned_contact.compiled.kernels import improved_features
-    from learned_contact.encodings import canonicalise, features
+    from learned_contact.model.encodings import canonicalise, features
 
     p, R, sA, sB = (np.ascontiguousarray(a[:500]) for a in held_out)
     X, PE, NE = improved_features(p, R, sA, sB)

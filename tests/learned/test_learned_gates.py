@@ -2,7 +2,7 @@
 
 The held-out poses use sampling seeds that training never uses (training uses
 10 * seed + 1 and + 2) and include poses outside the training distribution (steeper
-tilts, deeper overlaps: learned_contact/gates.py). Every gate must be one that a simple
+tilts, deeper overlaps: learned_contact/evaluation/gates.py). Every gate must be one that a simple
 alternative fails: the predictor's own geometric estimate (network zeroed) or Drake's
 point contact. Figures: see learned_contact/shipped/report.md.
 """
@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.gates import KNOWN_LIMITS, REPORTED, THRESHOLDS, GeometricPrior, answer_figures, gate_figures, held_out, outside_training
-from learned_contact.labels import make_dataset
-from learned_contact.metrics import paper_table
-from learned_contact.paper_mlp import PaperConfig, paper_targets, predict_paper, train_paper
+from learned_contact.data.labels import make_dataset
+from learned_contact.evaluation.gates import KNOWN_LIMITS, REPORTED, THRESHOLDS, GeometricPrior, answer_figures, gate_figures, held_out, outside_training
+from learned_contact.evaluation.metrics import paper_table
+from learned_contact.predictors.paper import predict_paper
+from learned_contact.training.paper import PaperConfig, paper_targets, train_paper
 
 GATE_SEED = 98_765  # sampling seeds 987_655 / 987_656 / 987_657, never used in training
 

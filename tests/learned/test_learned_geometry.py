@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from learned_contact.encodings import canonicalise, from_spherical, paper_outputs, spherical
+from learned_contact.data.sampling import sample
 from learned_contact.errors import DatasetError
-from learned_contact.prior import contact_type, patch_estimate
-from learned_contact.sampling import sample
+from learned_contact.model.encodings import canonicalise, from_spherical, paper_outputs, spherical
+from learned_contact.model.prior import contact_type, patch_estimate
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy, rpy_from_rotation
 

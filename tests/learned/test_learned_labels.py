@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from learned_contact import labels
-from learned_contact.sampling import sample
+from learned_contact.data import labels
+from learned_contact.data.sampling import sample
 
 H = {"1AA": np.array([6.096, 1.219, 1.2955]), "1CC": np.array([3.029, 1.219, 1.2955])}
 

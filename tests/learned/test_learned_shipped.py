@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.labels import make_dataset
-from learned_contact.metrics import evaluate
-from learned_contact.predictor import SHIPPED_DIR
-from learned_contact.report import render_markdown
-from learned_contact.training import SEED_TEST, TrainConfig
+from learned_contact.data.labels import make_dataset
+from learned_contact.evaluation.metrics import evaluate
+from learned_contact.evaluation.report import render_markdown
+from learned_contact.predictors.improved import SHIPPED_DIR
+from learned_contact.training.train import SEED_TEST, TrainConfig
 
 METRICS = json.loads((SHIPPED_DIR / "metrics.json").read_text())
 
@@ -46,7 +46,7 @@ def test_train_seed_0_reproduces_the_shipped_weights(tmp_path):
     up to 5.9e-5 (absolute) and the external figures by up to 2.5e-6 (relative), the
     float32 summation order of torch's CPU kernels; the tolerances are about 3x and 40x
     those, far below what a changed seed or data set gives (weights differ at 1e-1)."""
-    from learned_contact.training import train_default
+    from learned_contact.training.train import train_default
 
     metrics = train_default(tmp_path, seed=0, progress=False)
     mine, shipped = load_predictor(tmp_path / "weights.npz"), load_predictor()

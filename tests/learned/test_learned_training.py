@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.paper_mlp import PaperConfig
-from learned_contact.training import ExpertConfig, TrainConfig, train_default
+from learned_contact.predictors.paper import PaperConfig
+from learned_contact.training.train import ExpertConfig, TrainConfig, train_default
 
 pytestmark = pytest.mark.torch  # trains with torch (tests/conftest.py: skipped where it is not installed)
 
@@ -40,7 +40,7 @@ def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, mo
     import dataclasses
     import json
 
-    from learned_contact.training import RESTING_RECIPE
+    from learned_contact.training.train import RESTING_RECIPE
 
     assert RESTING_RECIPE["n_resting"] > 0 and TrainConfig().n_resting == 0  # the shipped recipe has none
     monkeypatch.setenv("TESTBED_CACHE", str(tmp_path / "cache"))

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.encodings import SYMMETRY_BAND, canonicalise, features
-from learned_contact.predictor import POINT_STEP
+from learned_contact.model.encodings import SYMMETRY_BAND, canonicalise, features
+from learned_contact.predictors.improved import POINT_STEP
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import rotation_from_rpy
 
@@ -56,7 +56,7 @@ def _poses(n: int, seed: int):
 def paths(tmp_path_factory):
     out = {"numpy": load_predictor(compiled=False).predict, "compiled": load_predictor().predict}
     try:
-        from learned_contact.onnx_export import export_onnx, onnx_session, run_onnx
+        from learned_contact.export.onnx_export import export_onnx, onnx_session, run_onnx
     except ImportError:  # pragma: no cover - the test extra installs onnx
         return out
     session = onnx_session(export_onnx("improved", tmp_path_factory.mktemp("sym") / "improved.onnx"))
@@ -149,9 +149,9 @@ def test_mirror_training_rows_are_the_same_poses_in_the_neighbouring_frames():
     with its label reflected into that frame."""
     import dataclasses
 
-    from learned_contact.encodings import frame_blend
-    from learned_contact.labels import make_dataset
-    from learned_contact.training import improved_inputs
+    from learned_contact.data.labels import make_dataset
+    from learned_contact.model.encodings import frame_blend
+    from learned_contact.training.train import improved_inputs
 
     ds = make_dataset("stacking", 60, 20_201, progress=False)
     p = ds.p_AB.copy()

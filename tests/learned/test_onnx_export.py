@@ -1,4 +1,4 @@
-"""ONNX export of the shipped predictors (learned_contact.onnx_export), the PyTorch
+"""ONNX export of the shipped predictors (learned_contact.export.onnx_export), the PyTorch
 export helper and `testbed export-onnx`: the exported files, run with onnxruntime on
 the CPU, agree with the compiled predictors on held-out poses and follow the contract
 (names, shapes, dynamic batch axis, metadata)."""
@@ -16,8 +16,8 @@ onnx = pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")
 
 from learned_contact import WeightsError, load_predictor  # noqa: E402
-from learned_contact.gates import OUTSIDE_RANGES  # noqa: E402
-from learned_contact.onnx_export import (  # noqa: E402
+from learned_contact.evaluation.gates import OUTSIDE_RANGES  # noqa: E402
+from learned_contact.export.onnx_export import (  # noqa: E402
     export_onnx,
     export_torch_model,
     onnx_session,
@@ -212,7 +212,7 @@ def test_torch_missing_names_the_pin(tmp_path, monkeypatch):
 
 
 def test_import_learned_contact_imports_neither_torch_nor_onnx():
-    code = ("import sys, learned_contact, learned_contact.onnx_export; "
+    code = ("import sys, learned_contact, learned_contact.export.onnx_export; "
             "print(sorted(m for m in ('torch', 'onnx', 'onnxruntime') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

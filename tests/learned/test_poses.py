@@ -1,11 +1,11 @@
-"""learned_contact.poses states the contract's rotation convention: checked against Drake's own
+"""learned_contact.predictors.poses states the contract's rotation convention: checked against Drake's own
 RollPitchYaw, Quaternion and RigidTransform (the conventions a user's simulator is compared to)."""
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 
-from learned_contact.poses import relative_pose, rotation_from_quaternion, rotation_from_rpy, to_world
+from learned_contact.predictors.poses import relative_pose, rotation_from_quaternion, rotation_from_rpy, to_world
 
 
 def test_roll_pitch_yaw_is_drakes():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from learned_contact import Predictor, WeightsError, load_predictor
-from learned_contact.loading import SHIPPED
+from learned_contact.predictors.loading import SHIPPED
 from testbed.bodies.containers import CONTAINER_TYPES
 
 SIZE_20 = np.array(CONTAINER_TYPES["1CC"].size)
@@ -112,7 +112,7 @@ def _broken(tmp_path, name, **changes):
     (dict(supported_sizes=np.zeros((2, 2))), r"field 'supported_sizes' has shape \(2, 2\)"),
     (dict(meta=np.array("{not json")), r"field 'meta' is not JSON"),
     (dict(kind=np.array("paper")), r"field 'mlp/W0' has shape \(91, \d+\) \(bias \(\d+,\)\); expected \(6, m\)"),
-    # the resting expert (format_version 2, learned_contact.expert)
+    # the resting expert (format_version 2, learned_contact.model.expert)
     (dict(format_version=np.array(1)), r"field 'format_version' is 1 but the file carries a resting expert"),
     (dict(**{f"expert/{k}": None for k in ("W0", "W1", "W2", "b0", "b1", "b2", "x_mean", "x_std", "activation", "domain")}),
      r"field 'expert/W0' is missing \(format_version 2 carries a resting expert\)"),

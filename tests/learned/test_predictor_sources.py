@@ -21,7 +21,7 @@ from learned_contact import (  # noqa: E402
     load_predictor,
     sources,  # noqa: E402
 )
-from learned_contact.gates import GeometricPrior  # noqa: E402
+from learned_contact.evaluation.gates import GeometricPrior  # noqa: E402
 from learned_contact.interface import CLIP_MARGIN  # noqa: E402
 
 SIZE_20 = np.array([6.058, 2.438, 2.591])
@@ -116,7 +116,7 @@ def test_broken_onnx_files_are_one_line_naming_the_file(tmp_path, case):
 
 @pytest.mark.parametrize("what", ["garbage", "empty", "directory", "device", "missing", "oversized"])
 def test_unreadable_model_files(tmp_path, monkeypatch, what):
-    from learned_contact import onnx_model
+    from learned_contact.predictors import onnx_model
 
     path = tmp_path / "m.onnx"
     if what == "garbage":
@@ -199,7 +199,7 @@ def test_a_fifo_model_file_is_refused_without_blocking(tmp_path, suffix):
 def test_a_weights_zip_bomb_is_refused_from_the_zip_directory(tmp_path, monkeypatch):
     """Arrays that unpack beyond the limit are refused before numpy reads any (the limit is
     lowered here so that a 1 MB array stands in for a bomb)."""
-    from learned_contact import loading
+    from learned_contact.predictors import loading
 
     path = tmp_path / "bomb.npz"
     np.savez_compressed(path, big=np.zeros(2**17))  # 1 MiB of zeros, ~1 kB on disk

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from learned_contact import PredictorDomainError, PredictorInputError, load_predictor
-from learned_contact.predictor import CLIP_MARGIN, DOMAIN_DEPTH
+from learned_contact.predictors.improved import CLIP_MARGIN, DOMAIN_DEPTH
 from testbed.bodies.containers import CONTAINER_TYPES
 
 SIZE = np.array(CONTAINER_TYPES["1CC"].size)

@@ -1,4 +1,4 @@
-"""The resting expert (learned_contact.expert, issue 20): its gate opens on every resting
+"""The resting expert (learned_contact.model.expert, issue 20): its gate opens on every resting
 pose, shuts beyond the margin it was trained on, hands over continuously, and changes
 nothing where it is shut; the file format carries it or refuses it clearly."""
 
@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.encodings import frame_blend, reflect
+from learned_contact.data.sampling import RESTING_RANGES
 from learned_contact.errors import WeightsError
-from learned_contact.expert import R_SLAB, default_domain, gate, slab_ratio, weights
-from learned_contact.onnx_export import probe_poses
-from learned_contact.sampling import RESTING_RANGES
+from learned_contact.export.onnx_export import probe_poses
+from learned_contact.model.encodings import frame_blend, reflect
+from learned_contact.model.expert import R_SLAB, gate, slab_ratio, weights
+from learned_contact.training.train import default_domain
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy
 
@@ -171,7 +172,7 @@ def test_on_a_level_stack_the_answer_is_the_priors_and_the_correction_returns_sm
     bit (measured against Drake on 214 poses with r < 0.001: prior 0.023 mm median, the
     expert's uncorrected answer 0.56 mm); the weight grows smoothly with r and is whole
     from R_SLAB on. A predictor without the construction fails the first assertion."""
-    from learned_contact.gates import GeometricPrior
+    from learned_contact.evaluation.gates import GeometricPrior
 
     shipped = load_predictor()
     p, R, s = _stack(depth=1e-4)
@@ -208,10 +209,10 @@ def test_near_level_stacks_are_answered_within_2_mm_where_the_prior_is_not():
     tilt across the patch is a fraction of the overlap), and on the most level third
     (slab ratio < R_SLAB, 142 poses) it is no worse than the prior's median there
     (measured 0.128 against 0.135 mm; the expert alone, without the construction of
-    learned_contact.expert, scored 0.55 mm there)."""
-    from learned_contact.gates import GeometricPrior
-    from learned_contact.labels import make_dataset
-    from learned_contact.metrics import point_normal_errors
+    learned_contact.model.expert, scored 0.55 mm there)."""
+    from learned_contact.data.labels import make_dataset
+    from learned_contact.evaluation.gates import GeometricPrior
+    from learned_contact.evaluation.metrics import point_normal_errors
 
     ds = make_dataset("resting_level", 400, 9, progress=False, use_cache=False)
     mine = point_normal_errors(*load_predictor().predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)[0]

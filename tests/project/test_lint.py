@@ -55,9 +55,9 @@ ALLOWED = {  # (file, function) -> why its imports of project modules stay insid
     ("testbed/studies/__init__.py", "__getattr__"): "lazy package attribute (PEP 562): the query study on first use",
     ("testbed/effects/learned_dynamics/force_law.py", "fit_pressure_stiffness"):
         _DRAKE + " (the force law is imported by the CLI's compare command; only the fit needs a Drake pair plant)",
-    ("learned_contact/labels.py", "pair_scene"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
-    ("learned_contact/labels.py", "label_one"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
-    ("learned_contact/loading.py", "_classes"): "paper_mlp imports loading's constants: a cycle at the top",
+    ("learned_contact/data/labels.py", "pair_scene"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
+    ("learned_contact/data/labels.py", "label_one"): _DRAKE + " (learned_contact; labelling alone needs Drake's answer)",
+    ("learned_contact/predictors/loading.py", "_classes"): "paper_mlp imports loading's constants: a cycle at the top",
 }
 
 

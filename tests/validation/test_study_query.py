@@ -143,8 +143,8 @@ def test_mujoco_normal_points_from_A_to_B_when_stacked(below):
 def test_paper_mlp_decoding_puts_the_point_on_A_surface():
     """A constant 'network' (zero weights) decodes to the same canonical direction; the
     point must lie on A's surface and the normal be unit, reflected into B's octant."""
-    from learned_contact.encodings import spherical
-    from learned_contact.mlp import NumpyMLP
+    from learned_contact.model.encodings import spherical
+    from learned_contact.model.mlp import NumpyMLP
 
     d, f = np.array([[0.9, 0.3, 0.2]]), np.array([[0.1, 0.2, 1.0]])
     bias = np.concatenate([spherical(d / np.linalg.norm(d)), spherical(f / np.linalg.norm(f))], 1)[0]

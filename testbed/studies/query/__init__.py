@@ -6,7 +6,7 @@
 On the same poses of a container pair (A, B), every method is asked for one contact
 point and one normal, timed side by side in this process, and compared with the
 reference: Drake's static hydroelastic answer (compliant-compliant, E as shipped: 1e9 Pa), its
-centre of pressure (CoP) and pressure-weighted normal (learned_contact/labels.py).
+centre of pressure (CoP) and pressure-weighted normal (learned_contact/data/labels.py).
 
   poses.py      the pose sets (stacking, general, near_parallel) and their labels
   methods/      the ContactMethod interface (base.py) and one module per method family:

@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from learned_contact import cost
-from learned_contact.cost import fastest_ns
+from learned_contact.evaluation import cost
+from learned_contact.evaluation.cost import fastest_ns
 from testbed.progress import progress as progress_bar
 from testbed.studies.query.methods import ContactMethod, build_methods
 from testbed.studies.query.poses import pooled
@@ -28,7 +28,7 @@ THROUGHPUT_BATCH = 4096  # pairs per call for the batched methods' throughput fi
 
 def _min_ns(fn, repeats: int) -> float:
     """Fastest wall time [ns] of `repeats` calls of fn (after the caller's warm-up):
-    learned_contact.cost's timing, which the bench and the benchmark script use too."""
+    learned_contact.evaluation.cost's timing, which the bench and the benchmark script use too."""
     return fastest_ns(fn, repeats)
 
 

@@ -1,15 +1,15 @@
 """The query study's pose sets: B's pose in A's frame, labelled with Drake's answer.
 
 Pose sets (A at the origin; container types 1CC, 1AA, 1AAA)
-- "stacking", "general": learned_contact.sampling's distributions, labelled by
-  learned_contact.labels.make_dataset (sampling seed 10 * seed + 7, disjoint from the
+- "stacking", "general": learned_contact.data.sampling's distributions, labelled by
+  learned_contact.data.labels.make_dataset (sampling seed 10 * seed + 7, disjoint from the
   training seeds 10 * seed + 1 and + 2);
 - "near_parallel": the paper's worst case (its Figure 4): B of the same type stacked
   on A, yaw a multiple of pi, centred within +-0.1 m, tilted about a random horizontal
   axis by angles log-spaced from 1e-5 to 1e-1 rad, penetration 0.1 to 5 mm.
 The reference answer of every pose is Drake's static hydroelastic centre of pressure
 and pressure-weighted normal (compliant-compliant, E as shipped: 1e9 Pa; the point and
-normal do not change when both moduli scale together; learned_contact/labels.py).
+normal do not change when both moduli scale together; learned_contact/data/labels.py).
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ import dataclasses
 
 import numpy as np
 
-from learned_contact import cache
-from learned_contact.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
-from learned_contact.sampling import Proposals
+from learned_contact.data import cache
+from learned_contact.data.labels import LABEL_FIELDS, LABEL_VERSION, Dataset, label_proposals, make_dataset
+from learned_contact.data.sampling import Proposals
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.drake_support import drake_version
 from testbed.geometry.rotations import rotation_from_rpy
@@ -70,7 +70,7 @@ def _from_dataset(name: str, ds, tilt=None) -> PoseSet:
 
 
 def near_parallel_proposals(n: int, seed: int):
-    """n proposals (learned_contact.sampling.Proposals) of the near-parallel worst case
+    """n proposals (learned_contact.data.sampling.Proposals) of the near-parallel worst case
     and their tilts (n,) [rad] (see the module docstring)."""
     rng = np.random.default_rng([seed, 99])
     kind = rng.integers(len(TYPES), size=n)
@@ -87,7 +87,7 @@ def near_parallel_proposals(n: int, seed: int):
 
 def make_pose_sets(n_poses: int, seed: int, *, progress: bool = True, use_cache: bool = True) -> dict:
     """{name: PoseSet} for POSE_SETS, n_poses proposals each (poses without a contact
-    surface are dropped and counted). Labels are cached (learned_contact.cache)."""
+    surface are dropped and counted). Labels are cached (learned_contact.data.cache)."""
     s = 10 * seed + STUDY_SEED_OFFSET
     out = {}
     for dist in ("stacking", "general"):

@@ -85,7 +85,7 @@ def run_query_study(out_dir, *, n_poses: int | None = None, seed: int = 0, quick
                    "sampling_seed": 10 * seed + STUDY_SEED_OFFSET},
         "environment": _environment(),
         "reference": "Drake hydroelastic compliant-compliant (E = 1e9 Pa, as shipped): centre of pressure and pressure-weighted "
-                     "normal (learned_contact.labels)",
+                     "normal (learned_contact.data.labels)",
         "pose_sets": {k: {"n": len(v), "n_dropped": v.n_dropped} for k, v in sets.items()},
         "methods": {},
     }

@@ -1,4 +1,4 @@
-"""Case kind `learned_gates`: the learned predictor's accuracy gates (learned_contact.gates).
+"""Case kind `learned_gates`: the learned predictor's accuracy gates (learned_contact.evaluation.gates).
 
 The shipped predictor's gates are listed with all the others. Predictors added with
 `testbed validate --predictor` get a case each (same held-out poses, same thresholds),
@@ -7,7 +7,7 @@ reported in a section of their own beside the shipped predictor's figures, not g
 from __future__ import annotations
 
 from learned_contact import sources
-from learned_contact.gates import KNOWN_LIMITS, evaluate_gates
+from learned_contact.evaluation.gates import KNOWN_LIMITS, evaluate_gates
 from testbed.document import Section, Text, table
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import KNOWN_LIMIT, Gate
@@ -55,13 +55,13 @@ class LearnedGatesCase(CaseKind):
             rows.append((*row, threshold))
         return [Section("Learned accuracy gates: added predictors (reported, not gated)", [
             Text("Each predictor given with --predictor on the same held-out poses as the shipped one, judged by the "
-                 "same thresholds (learned_contact/gates.py); only the shipped predictor's verdicts count toward the "
+                 "same thresholds (learned_contact/evaluation/gates.py); only the shipped predictor's verdicts count toward the "
                  "run's verdict."),
             table(["gate", *[c[0] for c in columns], "threshold"], rows)], order=52)]
 
 
 def _bound(name: str):
-    """The target a pinned known limit of learned_contact.gates does not reach (None: not one)."""
+    """The target a pinned known limit of learned_contact.evaluation.gates does not reach (None: not one)."""
     if not name.endswith(KNOWN_LIMIT):
         return None
     known = KNOWN_LIMITS.get(name[:-len(KNOWN_LIMIT)].strip())

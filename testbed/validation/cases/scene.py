@@ -28,7 +28,7 @@ FORCE_BALANCE_TOL = 0.01  # at rest, contact forces on the ground carry the tota
 
 # In-scene accuracy of the learned predictor, judged where it is trained to answer: the
 # hydroelastic centre of pressure of scenes driven by hydroelastic contact. Same bound as
-# the offline gate on held-out stacking poses (learned_contact/gates.py).
+# the offline gate on held-out stacking poses (learned_contact/evaluation/gates.py).
 IN_SCENE_POINT_MEDIAN_M = 0.03
 # Known limits, pinned like the stress suite's expected failures: the gate passes only
 # while the figure stays inside the band around the measured one, so getting worse (or
@@ -41,7 +41,7 @@ KNOWN_IN_SCENE_LIMITS = {
     "bridge": ("at the shipped 1e9 Pa the bridging box rests 0.03 mm deep on each support (10x shallower than at "
                "1e8 Pa, where this scene passed the 0.03 m gate), and where on each support the pressure centres "
                "is set by tilts of order 1e-5 rad. The bridging box's centre is over 0.5 m off each support's, "
-               "beyond the resting expert's gate (learned_contact/expert.py), so the main network answers, whose "
+               "beyond the resting expert's gate (learned_contact/model/expert.py), so the main network answers, whose "
                "training depths are uniform in 0-3 cm (0.1 % of them below 0.03 mm)", 0.0526, (0.8, 1.25)),
 }
 

@@ -3,7 +3,7 @@
 A two-body MultibodyPlant (time_step 0, no simulation) holds container A at the world
 origin and B posed per query, so world quantities are A-frame quantities. Queries go
 through the QueryObject from the plant's geometry-query input port (not a sampled
-output port), as learned_contact/labels.py does.
+output port), as learned_contact/data/labels.py does.
 
 Modes
 - "point": QueryObject.ComputePointPairPenetration; box-box goes to FCL's port of ODE's

@@ -12,7 +12,7 @@ Missing or unreadable weights mark the methods unavailable, with the reason.
 from __future__ import annotations
 
 from learned_contact import sources
-from learned_contact.paper_mlp import decode_paper, predict_paper
+from learned_contact.predictors.paper import decode_paper, predict_paper
 from testbed.studies.query.methods.base import ContactMethod
 
 ORDER = 40
@@ -25,7 +25,7 @@ MODELS = (  # method name prefix, label, load_predictor name, MethodOptions fiel
 def paper_predict(mlp, p_AB, R_AB, size_A):
     """The paper MLP's answer for poses p_AB (n, 3) [m], R_AB (n, 3, 3), size_A (n, 3)
     or (3,) [m]: (point (n, 3) [m] on A's surface, normal (n, 3) unit A->B) in A's frame
-    (mlp: a learned_contact.mlp.NumpyMLP; decoding: learned_contact.paper_mlp)."""
+    (mlp: a learned_contact.model.mlp.NumpyMLP; decoding: learned_contact.predictors.paper)."""
     return decode_paper(predict_paper(mlp, p_AB, R_AB), p_AB, size_A)
 
 

@@ -50,25 +50,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.sampling import RESTING_RANGES
-
 DOMAIN_FIELDS = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
                  "offset_in [m]", "offset_out [m]", "r_slab")
 # the slab ratio from which the expert's correction is whole (measured: the prior's median error
 # is 0.3 mm for r in 0.001-0.01 and 1.6 mm for r in 0.01-0.03; learned_contact/README.md)
 R_SLAB = 0.01
-
-
-def default_domain() -> np.ndarray:
-    """(9,) the gate's bounds (DOMAIN_FIELDS) from sampling's resting ranges: inner =
-    "resting" (roll and pitch each within t make a tilt up to sqrt(2) t; 1 % margins on
-    tilt and yaw, 10 % on depth for the labeller's 1 um bisection), outer = "resting_wide"
-    (its roll and pitch square holds the disc of radius t); then R_SLAB."""
-    (_, d_in), tilt_in, yaw_in, off_in = RESTING_RANGES["resting"]
-    (_, d_out), tilt_out, yaw_out, off_out = RESTING_RANGES["resting_wide"]
-    s = lambda deg: float(np.sin(np.radians(deg)))  # noqa: E731
-    return np.array([1.1 * d_in, d_out, s(1.01 * np.sqrt(2.0) * tilt_in), s(tilt_out), s(1.01 * yaw_in), s(yaw_out),
-                     off_in, off_out, R_SLAB])
 
 
 def check_domain(domain) -> str | None:

@@ -1,6 +1,6 @@
 """Exporting predictors to ONNX with the bench's contract, for a simulator to run.
 
-    from learned_contact.onnx_export import export_onnx, export_torch_model
+    from learned_contact.export.onnx_export import export_onnx, export_torch_model
     export_onnx("improved", "improved.onnx")          # or "paper", or a weights .npz
     export_torch_model(module, "my_model.onnx", supported_sizes=[[6.058, 2.438, 2.591]], name="mine")
 
@@ -53,15 +53,15 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact import onnx_graph as og
-from learned_contact.encodings import FLIPS, LENGTH_SCALE, PAPER_FRAME, SYMMETRY_BAND
+from learned_contact.data.sampling import sample
 from learned_contact.errors import WeightsError
-from learned_contact.expert import R_SLAB
+from learned_contact.export import onnx_graph as og
+from learned_contact.export.onnx_graph import IR_VERSION, OPSET, onnx_type
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
-from learned_contact.loading import load_weights
-from learned_contact.onnx_graph import IR_VERSION, OPSET, onnx_type
-from learned_contact.predictor import POINT_STEP
-from learned_contact.sampling import sample
+from learned_contact.model.encodings import FLIPS, LENGTH_SCALE, PAPER_FRAME, SYMMETRY_BAND
+from learned_contact.model.expert import R_SLAB
+from learned_contact.predictors.improved import POINT_STEP
+from learned_contact.predictors.loading import load_weights
 from testbed.geometry.boxes import sat_normal
 
 INPUTS = ("p_AB", "R_AB", "size_A", "size_B")
@@ -133,7 +133,7 @@ def _slab_scale(g, R_c, hA, hB, depth, overlap, r_slab):
 
 
 def _expert_weights(g, p_c, R_c, hA, hB, depth, overlap, domain):
-    """(w_main, w_expert) (M, 1) each: learned_contact.expert.weights of canonical rows
+    """(w_main, w_expert) (M, 1) each: learned_contact.model.expert.weights of canonical rows
     p_c (M, 3), R_c (M, 3, 3), half extents hA, hB (M, 3), depth (M, 1) [m], overlap
     (M, 15) [m]; both networks are evaluated on every row and blended (where the gate is
     shut and the slab scale is 1 the main network's answer is kept exactly: 1 * y + 0 * y_expert).
@@ -177,7 +177,7 @@ def improved_graph(predictor):
              g.mul(depth, g.f(30.0)), edge, g.mul(corners_B, s), g.mul(g.clip(depth_B, g.f(-0.5), g.f(0.5)), ten),
              g.mul(g.clip(depth_A, g.f(-0.5), g.f(0.5)), ten), axis=1)
     y = og.mlp(g, x, predictor.mlp)
-    # the resting expert and the slab scale (learned_contact.expert.weights)
+    # the resting expert and the slab scale (learned_contact.model.expert.weights)
     w_main, w_expert = _expert_weights(g, p_c, R_c, hA, hB, depth, overlap,
                                        None if predictor.expert is None else predictor.expert_domain)
     y = g.mul(w_main, y)
@@ -249,7 +249,7 @@ def model_proto(g, *, supported_sizes, name: str):
                helper.make_tensor_value_info("depth", TensorProto.FLOAT, [BATCH])]
     graph = helper.make_graph(g.nodes, name, inputs, outputs, g.initializers)
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
-                              producer_name="learned_contact.onnx_export")
+                              producer_name="learned_contact.export.onnx_export")
     model.ir_version = IR_VERSION
     set_metadata(model, supported_sizes=supported_sizes, name=name)
     onnx.checker.check_model(model, full_check=True)
@@ -288,7 +288,7 @@ def write_atomic(model, out_path) -> Path:
 
 def export_onnx(name_or_path, out_path, *, name=None) -> Path:
     """Exports a shipped predictor ("improved", "paper") or a weights .npz (as
-    learned_contact.loading.load_weights accepts) to an ONNX file with the contract above.
+    learned_contact.predictors.loading.load_weights accepts) to an ONNX file with the contract above.
     name: the metadata `name` (default: the predictor's name or the file's stem).
     Returns the path written. Raises WeightsError (one line naming the file) for a
     name or path that does not load."""
@@ -346,7 +346,7 @@ def _name_batch_axis(model) -> None:
 # ------------------------------------------------------------------ checking an export
 def probe_poses(n: int, seed: int, distribution: str = "general", **ranges):
     """(p_AB (n, 3), R_AB (n, 3, 3), size_A (n, 3), size_B (n, 3)) float64: the gates'
-    held-out pose proposals (learned_contact.sampling.sample, as gates.held_out draws
+    held-out pose proposals (learned_contact.data.sampling.sample, as gates.held_out draws
     them) placed at their target penetration depth along their direction by bisecting
     the separating-axis depth (exact for overlapping boxes; no Drake labels needed).
     ranges: sample's max_depth [m] / max_tilt_deg (gates.OUTSIDE_RANGES for the

@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.encodings import canonicalise, features, octant_signs, paper_outputs
-from learned_contact.labels import make_dataset
-from learned_contact.metrics import paper_table, point_normal_errors
+from learned_contact.data.labels import make_dataset
+from learned_contact.evaluation.metrics import paper_table, point_normal_errors
+from learned_contact.model.encodings import canonicalise, features, octant_signs, paper_outputs
 from learned_contact.sources import load_predictor
 
 N_HELD_OUT = 400
@@ -56,7 +56,7 @@ THRESHOLDS = {
     "outside point error median": (0.022, "m"),  # 1.5-1.6 cm (prior 2.6-2.8 cm)
     "outside point error median vs prior": (0.75, "x"),  # 0.54-0.60
     "outside normal error p95": (1.5, "deg"),  # 0.82-1.12 deg (prior 1.7-2.6 deg)
-    # resting (issue 20): the resting expert (learned_contact.expert) answers every pose of this set; the
+    # resting (issue 20): the resting expert (learned_contact.model.expert) answers every pose of this set; the
     # absolute bounds are issue 20's targets (the main network alone: median 2.1-2.3 cm, p95 11.5-13.4 cm)
     "resting point error median": (0.002, "m"),  # 1.34-1.59 mm (prior 2.0-2.6 cm; point contact 8.5-10.5 cm)
     "resting point error p95": (0.05, "m"),  # 0.90-1.68 cm (prior 14.9-20.4 cm; point contact 99-116 cm)

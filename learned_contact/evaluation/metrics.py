@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.encodings import angle_error, octant_signs, paper_outputs
-from learned_contact.prior import CONTACT_TYPES
+from learned_contact.model.encodings import angle_error, octant_signs, paper_outputs
+from learned_contact.model.prior import CONTACT_TYPES
 
 PAPER_OUTPUT_NAMES = ("az_point", "el_point", "az_force", "el_force")
 # The paper's published figures (averaged over its 4 outputs), for side-by-side reports.

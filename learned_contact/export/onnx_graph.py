@@ -1,10 +1,10 @@
-"""Graph-building helpers for learned_contact.onnx_export: a small node/initializer
+"""Graph-building helpers for learned_contact.export.onnx_export: a small node/initializer
 collector over the `onnx` package's helper API, and the batched box geometry of
-learned_contact.prior / encodings written in standard ONNX operators (opset 17).
+learned_contact.model.prior / encodings written in standard ONNX operators (opset 17).
 
 Every function here takes a `Graph` and tensor names and returns tensor names; the
 first axis of every tensor is the batch (n, dynamic). Shapes, frames and units follow
-learned_contact.prior: p (n, 3) [m] B's centre in A, R (n, 3, 3) B's axes in A
+learned_contact.model.prior: p (n, 3) [m] B's centre in A, R (n, 3, 3) B's axes in A
 (columns), hA, hB (n, 3) half extents [m]. `dt` is the numpy dtype the geometry is
 computed in (float64 for the improved predictor, so that every branch of the geometry
 (argmin of the 15 overlaps, the reference face, the clipping) is taken as in the
@@ -21,7 +21,7 @@ from testbed.geometry.boxes import CORNER_SIGNS
 OPSET = 17
 IR_VERSION = 8  # onnx 1.23 writes IR 11 by default; IR 8 (opset <= 17) loads in onnxruntime >= 1.12
 I64 = np.int64
-MAX_VERTS = 9  # learned_contact.prior._MAX_VERTS
+MAX_VERTS = 9  # learned_contact.model.prior._MAX_VERTS
 EDGE_BIAS = 1e-3  # [m] learned_contact.compiled.prior.EDGE_BIAS
 _NEXT = np.array([1, 2, 0], dtype=I64)  # (m + 1) % 3
 _NEXT2 = np.array([2, 0, 1], dtype=I64)  # (m + 2) % 3
@@ -353,7 +353,7 @@ def corners_depths(g: Graph, p_c, R_c, hA, hB):
 
 
 def mlp(g: Graph, x, net):
-    """learned_contact.mlp.NumpyMLP on x (n, in): standardise, hidden layers, linear output."""
+    """learned_contact.model.mlp.NumpyMLP on x (n, in): standardise, hidden layers, linear output."""
     h = g.div(g.sub(x, g.f(net.x_mean[None])), g.f(net.x_std[None]))
     last = len(net.weights) - 1
     for i, (W, b) in enumerate(zip(net.weights, net.biases)):

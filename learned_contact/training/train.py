@@ -1,6 +1,6 @@
 """Training of the improved predictor and the default run that makes shipped/.
 
-    from learned_contact.training import train_default
+    from learned_contact.training.train import train_default
     train_default("learned_contact/shipped", seed=0)
 
 Needs torch (training only) and Drake (labels). Datasets are cached (cache.py), so a
@@ -16,15 +16,16 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.encodings import canonicalise, features, frame_blend, reflect
-from learned_contact.expert import default_domain
-from learned_contact.labels import Dataset, make_dataset
-from learned_contact.metrics import evaluate, paper_table
-from learned_contact.mlp import NumpyMLP
-from learned_contact.paper_mlp import PaperConfig, PaperPredictor, paper_targets, predict_paper, train_paper
-from learned_contact.predictor import POINT_STEP, SHIPPED_DIR, ContactPredictor
-from learned_contact.report import write_report
-from learned_contact.sampling import MAX_DEPTH
+from learned_contact.data.labels import Dataset, make_dataset
+from learned_contact.data.sampling import MAX_DEPTH, RESTING_RANGES
+from learned_contact.evaluation.metrics import evaluate, paper_table
+from learned_contact.evaluation.report import write_report
+from learned_contact.model.encodings import canonicalise, features, frame_blend, reflect
+from learned_contact.model.expert import R_SLAB
+from learned_contact.model.mlp import NumpyMLP
+from learned_contact.predictors.improved import POINT_STEP, SHIPPED_DIR, ContactPredictor
+from learned_contact.predictors.paper import PaperPredictor, predict_paper
+from learned_contact.training.paper import PaperConfig, paper_targets, train_paper
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.progress import progress as progress_bar
 
@@ -33,7 +34,7 @@ SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests us
 
 @dataclasses.dataclass(frozen=True)
 class ExpertConfig:
-    """The resting expert (learned_contact.expert): a network of the main one's shape,
+    """The resting expert (learned_contact.model.expert): a network of the main one's shape,
     trained only on resting poses, with its own input standardisation. Measured choices
     (learned_contact/README.md, "The resting expert"): 80 epochs on "resting" alone gave
     a held-out resting median of 2.8-3.1 mm; 160 epochs, the "resting_wide" margin and a
@@ -90,6 +91,19 @@ class TrainConfig:
 # The resting-regime candidate of issue 20 (not shipped; figures in learned_contact/README.md):
 # the shipped recipe plus 60 000 resting poses and 80 epochs (beta 1 cm: see the README).
 RESTING_RECIPE = {"n_resting": 60_000, "epochs": 80}
+
+
+
+def default_domain() -> np.ndarray:
+    """(9,) the gate's bounds (DOMAIN_FIELDS) from sampling's resting ranges: inner =
+    "resting" (roll and pitch each within t make a tilt up to sqrt(2) t; 1 % margins on
+    tilt and yaw, 10 % on depth for the labeller's 1 um bisection), outer = "resting_wide"
+    (its roll and pitch square holds the disc of radius t); then R_SLAB."""
+    (_, d_in), tilt_in, yaw_in, off_in = RESTING_RANGES["resting"]
+    (_, d_out), tilt_out, yaw_out, off_out = RESTING_RANGES["resting_wide"]
+    s = lambda deg: float(np.sin(np.radians(deg)))  # noqa: E731
+    return np.array([1.1 * d_in, d_out, s(1.01 * np.sqrt(2.0) * tilt_in), s(tilt_out), s(1.01 * yaw_in), s(yaw_out),
+                     off_in, off_out, R_SLAB])
 
 
 def _split(ds: Dataset, n_val: int):
@@ -294,7 +308,7 @@ def evaluate_models(predictor: ContactPredictor, paper: NumpyMLP, sets: dict, pa
 
 
 def main(argv=None) -> None:
-    """python -m learned_contact.training [--out DIR] [--seed N] [--recipe resting] [--quiet]"""
+    """python -m learned_contact.training.train [--out DIR] [--seed N] [--recipe resting] [--quiet]"""
     import argparse
 
     parser = argparse.ArgumentParser(description="Reproduce learned_contact's shipped model from a seed.")

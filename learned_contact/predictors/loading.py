@@ -10,7 +10,7 @@ them all, `load_predictor`, are in learned_contact.sources.
 A weights file is an .npz with: format_version (int, FORMAT_VERSION), kind ("improved"
 or "paper"), supported_sizes (k, 3) full extents [m], meta (JSON string) and the network
 under mlp/ (x_mean, x_std, activation, W0.., b0..; W_i (in, out)). An improved file may
-carry a resting expert (learned_contact.expert): a second network of the same widths
+carry a resting expert (learned_contact.model.expert): a second network of the same widths
 under expert/ and its gate's bounds, expert/domain (8,); such a file has format_version
 EXPERT_FORMAT_VERSION (2), so that no reader of version 1 answers without it. Files written before
 `kind` existed are recognised by their arrays (the improved file has supported_sizes,
@@ -19,32 +19,43 @@ the paper file a 6-input network and no version).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
 import numpy as np
 
-from learned_contact.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, FORMAT_VERSIONS
 from learned_contact.errors import WeightsError, weights_error
-from learned_contact.expert import check_domain
-from learned_contact.mlp import ACTIVATIONS, NumpyMLP
-from learned_contact.predictor import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
+from learned_contact.model.expert import check_domain
+from learned_contact.model.mlp import ACTIVATIONS, NumpyMLP
+from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, FORMAT_VERSIONS
+from learned_contact.predictors.improved import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
+from learned_contact.predictors.paper import PaperPredictor
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.safe_files import load_npz
 
-SHIPPED = {"improved": DEFAULT_WEIGHTS, "paper": SHIPPED_DIR / "paper_weights.npz"}
-# kind -> (input width, output width) of its network
-SHAPES = {"improved": (91, 6), "paper": (6, 4)}
+
+@dataclasses.dataclass(frozen=True)
+class ShippedKind:
+    """One kind of predictor the testbed ships: its name (a weights file's `kind`), its shipped
+    weights file, its network's (input, output) widths, and the class a file of it loads into."""
+
+    name: str
+    weights: Path
+    widths: tuple[int, int]
+    predictor: type
+
+
+# The one table of shipped kinds: every name, file and class below is read from here.
+KINDS = {k.name: k for k in (
+    ShippedKind("improved", DEFAULT_WEIGHTS, (91, 6), ContactPredictor),
+    ShippedKind("paper", SHIPPED_DIR / "paper_weights.npz", (6, 4), PaperPredictor),
+)}
+SHIPPED = {name: k.weights for name, k in KINDS.items()}  # name -> shipped weights file
 LEGACY_PAPER_TYPES = ("1CC", "1AA", "1AAA")  # the shipped paper file's training sizes
 # The shipped improved file is ~60 kB; 64 MB (file and unpacked arrays) admits any MLP of this kind and
 # refuses a runaway file or a zip bomb.
 MAX_WEIGHTS_BYTES = 64 * 2**20
-
-
-def _classes() -> dict:
-    from learned_contact.paper_mlp import PaperPredictor
-
-    return {"improved": ContactPredictor, "paper": PaperPredictor}
 
 
 def resolve(name_or_path) -> Path:
@@ -72,16 +83,16 @@ def infer_kind(arrays: dict, path) -> str:
     """The recorded kind, or for files from before `kind` existed, the one their arrays show."""
     if "kind" in arrays:
         kind = str(arrays["kind"])
-        if kind not in SHAPES:
-            raise _fail(path, "kind", f"is {kind!r}", f"one of {sorted(SHAPES)}")
+        if kind not in KINDS:
+            raise _fail(path, "kind", f"is {kind!r}", f"one of {sorted(KINDS)}")
         return kind
     if "mlp/W0" not in arrays:
         raise _fail(path, "kind", "is missing and there is no network (mlp/W0)", "a predictor weights file")
     if "supported_sizes" in arrays:
         return "improved"
-    if arrays["mlp/W0"].shape[0] == SHAPES["paper"][0]:
+    if arrays["mlp/W0"].shape[0] == KINDS["paper"].widths[0]:
         return "paper"
-    raise _fail(path, "kind", "is missing and cannot be inferred", f"one of {sorted(SHAPES)}")
+    raise _fail(path, "kind", "is missing and cannot be inferred", f"one of {sorted(KINDS)}")
 
 
 def _mlp(arrays: dict, path, kind: str, prefix: str = "mlp/") -> NumpyMLP:
@@ -93,18 +104,18 @@ def _mlp(arrays: dict, path, kind: str, prefix: str = "mlp/") -> NumpyMLP:
     activation = str(arrays[f"{prefix}activation"])
     if activation not in ACTIVATIONS:
         raise _fail(path, f"{prefix}activation", f"is {activation!r}", f"one of {sorted(ACTIVATIONS)}")
-    width = SHAPES[kind][0]
+    width = KINDS[kind].widths[0]
     for i in range(n):
         W, b = arrays[f"{prefix}W{i}"], arrays[f"{prefix}b{i}"]
         if W.ndim != 2 or W.shape[0] != width or b.shape != (W.shape[1],):
             raise _fail(path, f"{prefix}W{i}", f"has shape {W.shape} (bias {b.shape})",
                         f"({width}, m) with bias (m,)")
         width = W.shape[1]
-    if width != SHAPES[kind][1]:
-        raise _fail(path, f"{prefix}W{n - 1}", f"has {width} outputs", f"{SHAPES[kind][1]} for kind {kind!r}")
+    if width != KINDS[kind].widths[1]:
+        raise _fail(path, f"{prefix}W{n - 1}", f"has {width} outputs", f"{KINDS[kind].widths[1]} for kind {kind!r}")
     for field in (f"{prefix}x_mean", f"{prefix}x_std"):
-        if arrays[field].shape != (SHAPES[kind][0],):
-            raise _fail(path, field, f"has shape {arrays[field].shape}", f"({SHAPES[kind][0]},)")
+        if arrays[field].shape != (KINDS[kind].widths[0],):
+            raise _fail(path, field, f"has shape {arrays[field].shape}", f"({KINDS[kind].widths[0]},)")
     mlp = NumpyMLP.from_arrays(arrays, prefix)
     if not all(np.all(np.isfinite(a)) for a in (*mlp.weights, *mlp.biases, mlp.x_mean, mlp.x_std)):
         raise _fail(path, f"{prefix}*", "holds NaN or inf", "finite weights")
@@ -125,10 +136,10 @@ def _expert(arrays: dict, path, kind: str, version: int) -> dict:
         raise _fail(path, "format_version", f"is {version} but the file carries a resting expert (expert/)",
                     f"{EXPERT_FORMAT_VERSION}")
     if "expert/domain" not in arrays:
-        raise _fail(path, "expert/domain", "is missing", "(8,) the expert gate's bounds (learned_contact.expert)")
+        raise _fail(path, "expert/domain", "is missing", "(8,) the expert gate's bounds (learned_contact.model.expert)")
     problem = check_domain(arrays["expert/domain"])
     if problem:
-        raise _fail(path, "expert/domain", problem, "the expert gate's bounds (learned_contact.expert.DOMAIN_FIELDS)")
+        raise _fail(path, "expert/domain", problem, "the expert gate's bounds (learned_contact.model.expert.DOMAIN_FIELDS)")
     return {"expert": _mlp(arrays, path, kind, "expert/"),
             "expert_domain": np.asarray(arrays["expert/domain"], dtype=float)}
 
@@ -162,4 +173,4 @@ def load_weights(name_or_path=None, *, compiled: bool = True):
         meta = json.loads(str(arrays["meta"])) if "meta" in arrays else {}
     except json.JSONDecodeError as exc:
         raise _fail(path, "meta", f"is not JSON ({exc})", "a JSON object") from exc
-    return _classes()[kind](mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled, **extra)
+    return KINDS[kind].predictor(mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled, **extra)

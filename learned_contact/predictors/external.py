@@ -113,7 +113,7 @@ class ExternalPredictor:
     @property
     def answer_function(self) -> AnswerFn:
         """The model's raw answer function (no checks, depth or clipping): what the cost
-        benchmark times as the model alone (learned_contact.cost)."""
+        benchmark times as the model alone (learned_contact.evaluation.cost)."""
         return self._answer
 
     def __repr__(self) -> str:

@@ -1,6 +1,6 @@
 """Speed benchmark (a script, not a test): the predictors against Drake's queries.
 
-    python -m learned_contact.benchmark [--n 2048] [--single 300] [--batch 4096] [--first-call]
+    python -m learned_contact.evaluation.benchmark [--n 2048] [--single 300] [--batch 4096] [--first-call]
 
 In ONE process, on the same labelled stacking and general poses (contact guaranteed),
 times in microseconds per pair:
@@ -19,7 +19,7 @@ Prints the table and the ratios the issue's targets are stated in:
 `--first-call` also measures, in fresh processes, the first predict call with a warm
 numba cache and with an empty one (NUMBA_CACHE_DIR pointed at a new folder).
 
-Timings are best-of-5 minima (least disturbed by other load), by learned_contact.cost (the
+Timings are best-of-5 minima (least disturbed by other load), by learned_contact.evaluation.cost (the
 bench and the query study time with the same code); BLAS is limited to one thread where
 threadpoolctl is installed (Drake's queries are single-threaded, and on a 2-core machine two
 OpenBLAS pools, numpy's and scipy's that numba imports, otherwise spin against each other).
@@ -33,8 +33,8 @@ import tempfile
 
 import numpy as np
 
-from learned_contact.cost import first_call_s, one_blas_thread, per_pair_s
-from learned_contact.labels import make_dataset, pair_scene, posed_query
+from learned_contact.data.labels import make_dataset, pair_scene, posed_query
+from learned_contact.evaluation.cost import first_call_s, one_blas_thread, per_pair_s
 from learned_contact.sources import SHIPPED_NAMES, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
 

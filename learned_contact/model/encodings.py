@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from learned_contact.prior import patch_estimate
+from learned_contact.model.prior import patch_estimate
 from testbed.geometry.boxes import CORNER_SIGNS
 
 _E1 = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)  # azimuth zero
@@ -143,7 +143,7 @@ def features(p_c, R_c, h_A, h_B, *, with_overlap: bool = False):
     its patch volume (1), depth (1), edge-axis flag (1), B's corners (24) and their
     depth inside A (8), A's corners' depth inside B (8). with_overlap: a fourth array,
     the 15 separating-axis overlaps (n, 15) [m] unclipped (the slab scale's faces,
-    learned_contact.expert.slab_axes).
+    learned_contact.model.expert.slab_axes).
     """
     n = len(p_c)
     s = LENGTH_SCALE

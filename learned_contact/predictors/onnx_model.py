@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact import limits
 from learned_contact.errors import PredictorOutputError, PredictorTimeoutError, WeightsError, onnx_file_error
-from learned_contact.external import ExternalPredictor, consistency_probe, default_sizes
+from learned_contact.predictors import limits
+from learned_contact.predictors.external import ExternalPredictor, consistency_probe, default_sizes
 from testbed.safe_files import check_regular_file
 
 INPUTS = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}  # name -> shape after the batch axis
@@ -124,7 +124,7 @@ def _session(path: Path):
     except Exception as exc:  # noqa: BLE001 - every unreadable model is the same error
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise WeightsError(f"ONNX model {path}: onnxruntime cannot load it ({first[:200]}); expected an ONNX "
-                           "model file (export one with torch.onnx.export or learned_contact.onnx_export)") from None
+                           "model file (export one with torch.onnx.export or learned_contact.export.onnx_export)") from None
 
 
 def _check_arg(path, kind: str, arg, tail: tuple) -> np.dtype:
@@ -162,7 +162,7 @@ def _metadata(path, session) -> tuple[np.ndarray, str]:
 
 def check_file(path) -> None:
     """The checks that read no more than the file's graph: a regular file under
-    MAX_MODEL_BYTES, nodes and external data within learned_contact.limits' bounds."""
+    MAX_MODEL_BYTES, nodes and external data within learned_contact.predictors.limits' bounds."""
     path = Path(path)
     size = check_regular_file(path, MAX_MODEL_BYTES, "ONNX model (.onnx)", onnx_file_error)
     check_graph(path, size)

@@ -1,6 +1,6 @@
 """The improved contact predictor (kind "improved"): geometric estimate + learned correction.
 
-    pred = learned_contact.load_predictor()      # shipped default (learned_contact.loading)
+    pred = learned_contact.load_predictor()      # shipped default (learned_contact.predictors.loading)
     point_A, normal_A = pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
 
 Pipeline (fixed cost per pair): canonicalise the pose into A's positive octant
@@ -9,7 +9,7 @@ Pipeline (fixed cost per pair): canonicalise the pose into A's positive octant
 normal = normalise(estimate + y[3:6])), reflect back. Within encodings.SYMMETRY_BAND of
 one of A's reflection planes the answer is blended with the same pose answered in the
 neighbouring octant's frame (encodings.frame_blend), so that it is continuous across
-the plane by construction. Where stacks rest (learned_contact.expert's gate) a second
+the plane by construction. Where stacks rest (learned_contact.model.expert's gate) a second
 network of the same shape, the resting expert, gives the correction instead, with a
 smooth hand-over at its domain's edges. The numpy path below is the
 reference; learned_contact.compiled.kernels.improved_predict is the same pipeline compiled.
@@ -22,14 +22,14 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, MLPPredictor
-from learned_contact.encodings import features, frame_blend, reflect
-from learned_contact.expert import weights
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
-from learned_contact.mlp import NumpyMLP
+from learned_contact.model.encodings import features, frame_blend, reflect
+from learned_contact.model.expert import weights
+from learned_contact.model.mlp import NumpyMLP
+from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, MLPPredictor
 from testbed.geometry.boxes import sat_normal
 
-SHIPPED_DIR = Path(__file__).resolve().parent / "shipped"
+SHIPPED_DIR = Path(__file__).resolve().parents[1] / "shipped"
 DEFAULT_WEIGHTS = SHIPPED_DIR / "weights.npz"
 POINT_STEP = 0.5  # [m] per unit of the MLP's point outputs
 
@@ -43,7 +43,7 @@ class ContactPredictor(MLPPredictor):
     module docstring); the interface is learned_contact.interface.Predictor.
 
     expert: the resting expert (same input and output widths as mlp) or None;
-    expert_domain (9,): its gate's bounds (learned_contact.expert.DOMAIN_FIELDS),
+    expert_domain (9,): its gate's bounds (learned_contact.model.expert.DOMAIN_FIELDS),
     given exactly when expert is."""
 
     kind = "improved"
@@ -68,7 +68,7 @@ class ContactPredictor(MLPPredictor):
         R_c (n, 3, 3), half extents (n, 3) [m], depth (n,) [m], overlaps (n, 15) [m]: the
         main network's, where the expert's gate is open blended with the expert's, all
         scaled by the slab scale (0 where B's face is parallel to A's: the prior's answer
-        exactly; learned_contact.expert.weights); each network only where it counts."""
+        exactly; learned_contact.model.expert.weights); each network only where it counts."""
         w_main, w_expert = weights(p_c, R_c, h_A, h_B, depth, self.expert_domain, overlap)
         y = np.zeros((len(x), 6))
         main, expert = w_main > 0.0, w_expert > 0.0

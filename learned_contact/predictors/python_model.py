@@ -24,10 +24,10 @@ import sys
 
 import numpy as np
 
-from learned_contact import limits
 from learned_contact.errors import PredictorOutputError, PredictorTimeoutError, WeightsError
-from learned_contact.external import ExternalPredictor, default_sizes
-from learned_contact.onnx_model import probe
+from learned_contact.predictors import limits
+from learned_contact.predictors.external import ExternalPredictor, default_sizes
+from learned_contact.predictors.onnx_model import probe
 
 SPEC = re.compile(r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
 

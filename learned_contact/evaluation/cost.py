@@ -1,6 +1,6 @@
 """What a contact query costs: the one timing code behind the bench's cost section
 (testbed.bench.cost), the query study (testbed/studies/query) and the benchmark script
-(learned_contact.benchmark).
+(learned_contact.evaluation.benchmark).
 
 - `fastest_ns(fn, repeats)`: the fastest of `repeats` calls [ns], the cost of the call
   without interference from other processes on shared cores (the caller warms up first);
@@ -13,7 +13,7 @@
 - `drake_point_pair_cost(singles)`: Drake's point-pair query per pair, with the pose set per
   call and the query alone (the reference every ratio is stated against);
 - `first_call_s(spec)`: import, load and the first answer in a fresh interpreter (what a
-  simulator pays at start-up), under learned_contact.limits' bounds.
+  simulator pays at start-up), under learned_contact.predictors.limits' bounds.
 
 Poses: `singles` is a list of (p_AB (3,) [m], R_AB (3, 3), size_A (3,), size_B (3,)) and
 `batched` one tuple of (n, 3), (n, 3, 3), (n, 3), (n, 3) arrays. Absolute times depend on the
@@ -33,9 +33,9 @@ import time
 
 import numpy as np
 
-from learned_contact import limits
+from learned_contact.data.labels import pair_scene, posed_query
 from learned_contact.errors import WeightsError
-from learned_contact.labels import pair_scene, posed_query
+from learned_contact.predictors import limits
 from testbed.bodies.containers import CONTAINER_TYPES
 
 ROUNDS = 3  # timing rounds; the fastest counts
@@ -71,7 +71,7 @@ def one_blas_thread():
 
 def predictor_cost(pred, singles, batched, rounds: int = ROUNDS) -> dict:
     """{"single_s_per_pair", "batched_s_per_pair"} of a loaded predictor on the same poses.
-    For a model the testbed did not ship (learned_contact.external.ExternalPredictor) also
+    For a model the testbed did not ship (learned_contact.predictors.external.ExternalPredictor) also
     {"model_single_s_per_pair", "model_batched_s_per_pair"}: its own answer function alone (the
     ONNX runtime's session.run, the Python object's predict), without the wrapper's checks,
     depth and clipping: what an integrator calling the model directly pays."""
@@ -97,7 +97,7 @@ def _type_of(size) -> str:
 
 def drake_point_pair_cost(singles, rounds: int = ROUNDS) -> dict:
     """{"set_pose_and_query_s_per_pair", "kernel_s_per_pair"}: Drake's point-pair penetration
-    query on the pair scenes the labels use (learned_contact.labels), pose set per call, and the
+    query on the pair scenes the labels use (learned_contact.data.labels), pose set per call, and the
     query alone on an already-posed scene (the first pose)."""
     scenes = [pair_scene(_type_of(a), _type_of(b)) for _, _, a, b in singles]
     for scene, (p, R, _, _) in zip(scenes[:3], singles):  # build and warm
@@ -115,7 +115,8 @@ FIRST_CALL = (
     "sys.path.append(os.getcwd())\n"
     "t0 = time.perf_counter()\n"
     "import numpy as np\n"
-    "from learned_contact import limits, load_predictor\n"
+    "from learned_contact import load_predictor\n"
+    "from learned_contact.predictors import limits\n"
     "limits.set_limits(**json.loads(sys.argv[2]))\n"
     "pred = load_predictor(sys.argv[1])\n"
     "size = pred.supported_sizes[0]\n"

@@ -22,9 +22,9 @@ import os
 
 import numpy as np
 
-from learned_contact import cache
-from learned_contact.prior import contact_type
-from learned_contact.sampling import Proposals, sample
+from learned_contact.data import cache
+from learned_contact.data.sampling import Proposals, sample
+from learned_contact.model.prior import contact_type
 from testbed.drake_support import drake_version
 from testbed.progress import progress as progress_bar
 

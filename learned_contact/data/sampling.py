@@ -25,7 +25,7 @@ Penetration depth is uniform in [0, 3 cm] in both.
   (max_depth and max_tilt_deg are refused for it).
 - "resting_wide": the same with every range widened to the resting expert's margin
   (RESTING_RANGES: 5 um to 1 mm, 0.1 deg, 3 deg, 0.5 m), so that the expert is trained
-  wherever its gate (learned_contact.expert) lets it answer, ramps included.
+  wherever its gate (learned_contact.model.expert) lets it answer, ramps included.
 - "resting_level": "resting" with the tilt of B's z axis from A's log-uniform in
   RESTING_LEVEL_TILT (1e-9 to 1e-3 rad, any direction) instead of roll and pitch uniform
   within 0.05 deg, where tilts below 1e-5 rad are rare: stacks settled under a centred
@@ -124,7 +124,7 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
 
     max_depth [m] (default MAX_DEPTH) and max_tilt_deg (stacking roll and pitch bound,
     default 5 deg) widen the ranges for held-out poses outside the training distribution
-    (learned_contact/gates.py); the defaults are the training ranges and draw exactly the
+    (learned_contact/evaluation/gates.py); the defaults are the training ranges and draw exactly the
     same random stream. "resting" has fixed ranges (module docstring) and refuses both."""
     if (distribution in RESTING_RANGES or distribution == "resting_wider") and (max_depth is not None or max_tilt_deg is not None):
         raise DatasetError(f"the {distribution!r} distribution has fixed ranges; max_depth and max_tilt_deg are "

@@ -15,7 +15,7 @@ from typing import ClassVar
 import numpy as np
 
 from learned_contact.interface import DOMAIN_DEPTH, check_numpy, check_outside, check_poses, check_size_shape, domain_error, raise_for_status
-from learned_contact.mlp import NumpyMLP
+from learned_contact.model.mlp import NumpyMLP
 from testbed.geometry.boxes import sat_normal
 
 FORMAT_VERSION = 1
@@ -110,7 +110,7 @@ class MLPPredictor:
     def save(self, path) -> Path:
         """Writes the predictor to an .npz file: format_version, kind, supported_sizes,
         meta (JSON), the network under mlp/ and a subclass's extra arrays
-        (learned_contact.loading reads it)."""
+        (learned_contact.predictors.loading reads it)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         version, extra = self._extra_arrays()

@@ -9,8 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from learned_contact.metrics import PAPER_OUTPUT_NAMES, PAPER_TABLE_1, PAPER_TABLE_2
-from learned_contact.predictor import SHIPPED_DIR
+from learned_contact.evaluation.metrics import PAPER_OUTPUT_NAMES, PAPER_TABLE_1, PAPER_TABLE_2
+from learned_contact.predictors.improved import SHIPPED_DIR
 
 _SPLITS = ("train", "validation", "external")
 
