@@ -47,7 +47,7 @@ SOURCES = (
 )
 BY_KEY = {s.key: s for s in SOURCES}
 HELP = ("improved (shipped default), paper, a weights file (.npz), an ONNX model (.onnx, the contract in "
-        "learned_contact/README.md) or module:attribute (a Python factory)")
+        "docs/bench.md) or module:attribute (a Python factory)")
 
 
 def source_of(spec) -> Source:

@@ -1,5 +1,5 @@
 """The `testbed` command line: the commands of testbed/commands/ (`testbed --help`
-lists them; README.md shows each), and the exit statuses.
+lists them; docs/commands.md shows each), and the exit statuses.
 
 Errors in the user's input (scene files, overrides, options) print one line naming
 the file and field and exit with status 2; a simulation that fails (solver

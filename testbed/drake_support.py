@@ -1,7 +1,7 @@
 """What the installed Drake offers where the two supported releases differ.
 
 The testbed runs on drake 1.51.1 (Python 3.10-3.11) and drake 1.58.0 (Python >= 3.12;
-README "Python and Drake versions"). Drake 1.57 removed the TAMSI discrete solver
+docs/drake-versions.md). Drake 1.57 removed the TAMSI discrete solver
 (`discrete_contact_approximation: tamsi`), so what a scene, a sweep or a study may ask for
 depends on the installed release. Each answer here is a feature test on the installed
 pydrake (what it binds), not a comparison of version numbers; the version is named only in

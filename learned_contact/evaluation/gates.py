@@ -80,7 +80,7 @@ KNOWN_LIMITS = {
         "measured 1.48-1.70 cm (one of four seeds under 1.5 cm): the main network's figure, which the resting "
         "expert leaves as it was (its gate is shut on almost every stacking pose); main networks retrained with "
         "resting poses reached 1.23-1.58 cm but lost the outside normal tail or the overhang scenes' closed loop "
-        "(learned_contact/README.md)"),
+        "(learned_contact/RESEARCH_LOG.md)"),
 }
 LIMIT_UNITS = {"vs prior": "x", "normal": "deg"}  # unit of a KNOWN_LIMITS figure by its name, else "m"
 # Reported, not gated: where the geometric estimate is already exact (the normal of a

@@ -53,7 +53,7 @@ import numpy as np
 DOMAIN_FIELDS = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
                  "offset_in [m]", "offset_out [m]", "r_slab")
 # the slab ratio from which the expert's correction is whole (measured: the prior's median error
-# is 0.3 mm for r in 0.001-0.01 and 1.6 mm for r in 0.01-0.03; learned_contact/README.md)
+# is 0.3 mm for r in 0.001-0.01 and 1.6 mm for r in 0.01-0.03; learned_contact/RESEARCH_LOG.md)
 R_SLAB = 0.01
 
 

@@ -1,6 +1,6 @@
 """Loading an ONNX contact model (`.onnx`, run by onnxruntime on the CPU).
 
-The contract (README.md, learned_contact/README.md):
+The contract (docs/bench.md):
 - inputs `p_AB` (n, 3), `R_AB` (n, 3, 3), `size_A` (n, 3), `size_B` (n, 3): B's centre
   and orientation in A's frame and both boxes' full extents [m]; float32 or float64
   (the declared type is read and the inputs converted to it); the first axis dynamic;

@@ -36,7 +36,7 @@ SEED_TRAIN, SEED_TEST = 1, 2  # sampling seed = 10 * seed + these; gate tests us
 class ExpertConfig:
     """The resting expert (learned_contact.model.expert): a network of the main one's shape,
     trained only on resting poses, with its own input standardisation. Measured choices
-    (learned_contact/README.md, "The resting expert"): 80 epochs on "resting" alone gave
+    (learned_contact/RESEARCH_LOG.md, "The resting expert"): 80 epochs on "resting" alone gave
     a held-out resting median of 2.8-3.1 mm; 160 epochs, the "resting_wide" margin and a
     smooth-L1 beta of 1 cm 1.4-1.8 mm, of 5 mm 1.35-1.50 mm (held-out seeds 0 and 98765)."""
 
@@ -58,7 +58,7 @@ class TrainConfig:
     n_val_fraction: float = 0.1  # of each improved-model training pool
     n_test_general: int = 50_000  # the paper's external test size
     n_test_stacking: int = 10_000
-    # 2x64 SiLU, kept after measuring smaller networks (learned_contact/README.md): 2x32
+    # 2x64 SiLU, kept after measuring smaller networks (learned_contact/RESEARCH_LOG.md): 2x32
     # ReLU costs about a third as much but jumps 11 cm across the x = 0 reflection plane
     hidden: tuple[int, ...] = (64, 64)
     activation: str = "silu"
@@ -69,7 +69,7 @@ class TrainConfig:
     point_beta: float = 0.05  # [m] smooth L1 beta of the point loss (quadratic below it)
     normal_scale: float = 0.02  # unit-vector error scale in the loss
     # labelled "resting" poses (sampling.py, issue 20) added to the training pool; 0: the
-    # shipped recipe (RESTING_RECIPE is the measured candidate, learned_contact/README.md)
+    # shipped recipe (RESTING_RECIPE is the measured candidate, learned_contact/RESEARCH_LOG.md)
     n_resting: int = 0
     # train on the neighbouring octant frames of poses near a reflection plane too
     # (improved_inputs(mirror=True)), so that the predictor's blend there moves little
@@ -88,7 +88,7 @@ class TrainConfig:
         return dataclasses.asdict(self)
 
 
-# The resting-regime candidate of issue 20 (not shipped; figures in learned_contact/README.md):
+# The resting-regime candidate of issue 20 (not shipped; figures in learned_contact/RESEARCH_LOG.md):
 # the shipped recipe plus 60 000 resting poses and 80 epochs (beta 1 cm: see the README).
 RESTING_RECIPE = {"n_resting": 60_000, "epochs": 80}
 
