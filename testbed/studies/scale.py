@@ -1,4 +1,4 @@
-"""`testbed study scale`: what a yard of N containers costs with each contact model (issue 29).
+"""`testbed study scale`: what a yard of N containers costs with each contact model.
 
 For each size N (a yard block of rows x bays x tiers of one container type, laid out by the
 scene's `yards:` field, testbed/bodies/yards.py) and each contact model:
@@ -406,7 +406,7 @@ def report_sections(study: dict) -> list[Section]:
         Section("What a yard of N containers costs", [Text(key), Text(runs), table(
             ["model", f"growth exponent (N >= {config.fit_from})", "per step at the largest N", "real-time factor there",
              "largest N in real time", "final position error there [mm]", "not ok"], summary)], order=10),
-        Section("Targets (issue 29)", [Text("Measured in this run, on this machine (timings are ratios within one run: "
+        Section("Targets", [Text("Measured in this run, on this machine (timings are ratios within one run: "
                                             "other work on a shared machine slows every cell)."),
                                        table(["target", "measured", "met"],
                                              [[x["target"], x["measured"], {True: "yes", False: "NO", None: "-"}[x["met"]]]
