@@ -122,3 +122,21 @@ def test_vectorised_wind_is_the_mujoco_engines():
     for k in range(len(free)):
         f = wind_force_W(s.effects.wind, sizes[k], R[k], 0.7)
         np.testing.assert_allclose(got[k], np.concatenate([f, np.cross(-(R[k] @ com[k]), f)]), rtol=1e-12, atol=1e-9)
+
+
+def test_a_blow_up_ends_the_run_with_an_error():
+    """The explicit law's known limit (issue 29's landing: a 25 t load at 1 m/s onto an empty
+    40 ft box on two loaded ones blows up the Drake-hosted loop too): the run stops there and
+    says so, instead of running on with containers kilometres away."""
+    landing = load_scenario(text="""
+name: heavy_on_empty
+duration: 0.1
+containers:
+- {name: b1, type: 1AA, mass: 24000.0, X_WC: {translation: [0, 0, 1.2955]}}
+- {name: b2, type: 1AA, mass: 24000.0, X_WC: {translation: [0, 0, 3.8865]}}
+- {name: empty, type: 1AA, mass: 3750.0, X_WC: {translation: [0, 0, 6.4775]}}
+- {name: load, type: 1AA, mass: 25000.0, X_WC: {translation: [0, 0, 9.0695]}, V_WC: [0, 0, 0, 0, 0, -1.0]}
+effects: {contact: {}, friction: {}}
+""")
+    run = engine("mujoco_learned").run(landing, duration=0.1)
+    assert "blew up at t = " in run.trajectory.error and run.trajectory.simulated_s < 0.1

@@ -53,6 +53,7 @@ from testbed.errors import ScenarioError
 from testbed.geometry.boxes import box_box_signed_distance
 
 NEAR = 0.05  # [m] candidate margin, the Drake-hosted loop's (learned_dynamics.effect.NEAR)
+MAX_SPEED = 100.0  # [m/s, rad/s] a state past this has blown up (no container in a yard moves so fast)
 MU_SDF = 0.4  # [-] the models' mu_dynamic, the Drake-hosted loop's default friction (effect.MU_SDF)
 
 
@@ -320,7 +321,8 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         mujoco_s += (t1 - t0) + (t4 - t3)
         effects_s += t3 - t2
         steps_done = i + 1
-        if data.warning[int(mj.mjtWarning.mjWARN_BADQACC)].number > 0 or not np.all(np.isfinite(data.qpos)):
+        if (data.warning[int(mj.mjtWarning.mjWARN_BADQACC)].number > 0 or not np.all(np.isfinite(data.qpos))
+                or np.abs(data.qvel).max(initial=0.0) > MAX_SPEED):
             diverged = True
             break
         if (i + 1) % every == 0:  # the rows of state i (Drake's contact_log logs steps every - 1, 2 every - 1, ...)
@@ -364,7 +366,8 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     run = MujocoRun(tables={"steps": steps, "contacts": contacts}, summary=summary, body_names=tr.body_names,
                     free_names=tr.free_names, mjcf=tr.mjcf)
     trajectory = trajectory_of(run, every)
-    trajectory.error = "the MuJoCo-hosted learned loop's state went non-finite" if diverged else ""
+    trajectory.error = (f"the MuJoCo-hosted learned loop blew up at t = {steps_done * h:g} s (state non-finite or "
+                        f"faster than {MAX_SPEED:g} m/s)" if diverged else "")
     trajectory.costs = {"calc_s": broad_s + predict_s + law_s + effects_s, "predict_s": predict_s, "record_s": record_s,
                         "calc_calls": steps_done, "predict_calls": int(law.costs[4]),
                         "predict_pairs": int(law.costs[5])}
