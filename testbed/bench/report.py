@@ -11,6 +11,7 @@ from pathlib import Path
 from testbed.bench.yard_budget import budget_section
 from testbed.document import Bullets, Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
 from testbed.gates.closed_loop import DISCRIMINATION
+from testbed.provenance import line as provenance_line
 from testbed.records import atomic_directory
 
 
@@ -157,7 +158,8 @@ def _not_covered(data: dict) -> list:
 
 def sections(data: dict) -> list[Section]:
     good, lines = headline(data)
-    head = Section(None, [Verdict(good, " | ".join(lines)), *_not_covered(data)], order=0)
+    head = Section(None, [Verdict(good, " | ".join(lines)), *_not_covered(data),
+                          *([Text(provenance_line(data["provenance"]))] if "provenance" in data else [])], order=0)
     budget = [budget_section(data["yard_budget"], order=3)] if data.get("yard_budget") else []  # after the cost
     return [head, _leaderboard(data), _accuracy(data), _cost(data), *budget, _scenes(data)]
 

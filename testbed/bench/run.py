@@ -25,6 +25,7 @@ from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES
 from testbed.bench.yard_budget import BudgetSettings, yard_budget
 from testbed.errors import TestbedError
 from testbed.gates import is_known_limit
+from testbed.provenance import provenance
 from testbed.scenario import load_scenario
 
 SCHEMA = "testbed.bench/1"
@@ -151,7 +152,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
            "references": costs["references"], "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
-           "wall_s": time.perf_counter() - t0}
+           "provenance": provenance(), "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
 
         write_bench(Path(out_dir), out)

@@ -15,6 +15,7 @@ import platform
 from pathlib import Path
 
 from testbed.document import Bullets, Link, Section, Text, figures, table, to_html, to_markdown
+from testbed.provenance import commit
 from testbed.records import json_default, write_atomic
 from testbed.validation import gates as gate_lib
 from testbed.validation.cases import ok_records, registry
@@ -67,7 +68,7 @@ def _environment() -> dict:
     except ImportError:
         mujoco_version = "not installed"
     return {"python": platform.python_version(), "platform": platform.platform(), "numpy": numpy.__version__,
-            "drake": drake_version, "mujoco": mujoco_version, "cpus": os.cpu_count()}
+            "drake": drake_version, "mujoco": mujoco_version, "cpus": os.cpu_count(), "commit": commit()}
 
 
 def build_metrics(spec: dict, records: list[dict], replays: dict[str, str] | None = None) -> dict:

@@ -71,6 +71,7 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
     # geometric prior tips the overhanging box 0.74 deg off the truth's (bound 0.5 deg)
     assert improved["closed_loop"]["overhang_tip"]["passed"] and not geo["closed_loop"]["overhang_tip"]["passed"]
     # the files hold the same data; every predictor is in the leaderboard table
+    assert set(data["provenance"]) == {"date", "commit", "machine", "python", "drake"}
     on_disk = json.loads((out / "bench.json").read_text())
     assert on_disk["leaderboard"] == data["leaderboard"]
     html = (out / "index.html").read_text()
