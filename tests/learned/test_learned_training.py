@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
-from learned_contact.predictors.paper import PaperConfig
+from learned_contact.training.paper import PaperConfig
 from learned_contact.training.train import ExpertConfig, TrainConfig, train_default
 
 pytestmark = pytest.mark.torch  # trains with torch (tests/conftest.py: skipped where it is not installed)
