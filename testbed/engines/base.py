@@ -63,6 +63,11 @@ class Engine:
     # a learned predictor decides its container contact (mujoco_learned): compare judges it at the
     # learned law's modulus by the closed-loop gates, and its params name the predictor
     learned: ClassVar[bool] = False
+    # what validate's report says of this engine beside its rows (the report names no engine itself)
+    report_note: ClassVar[str] = ""
+    # the query study's method that times this engine's own contact query ("" if none): the report's
+    # candidates table takes its contact-point error and cost per query from it
+    query_method: ClassVar[str] = ""
 
     def unavailable(self) -> str | None:
         """Why this engine cannot run here (a missing package and its install command), or None."""

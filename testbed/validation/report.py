@@ -15,6 +15,7 @@ import platform
 from pathlib import Path
 
 from testbed.document import Bullets, Link, Section, Text, figures, table, to_html, to_markdown
+from testbed.engines import engines
 from testbed.provenance import commit
 from testbed.records import json_default, write_atomic
 from testbed.validation import gates as gate_lib
@@ -61,14 +62,14 @@ def _environment() -> dict:
         drake_version = metadata.version("drake")
     except metadata.PackageNotFoundError:
         drake_version = getattr(pydrake, "__version__", "unknown")
-    try:  # optional (the engine case kind): its version, or that it is missing
-        import mujoco
-
-        mujoco_version = mujoco.__version__
-    except ImportError:
-        mujoco_version = "not installed"
+    engine_versions = {}
+    for name, e in engines().items():  # every engine's version, or why it cannot run here
+        if name in ("drake", "learned"):
+            continue
+        reason = e.unavailable()
+        engine_versions[name] = (e.version() or "-") if reason is None else "not installed"
     return {"python": platform.python_version(), "platform": platform.platform(), "numpy": numpy.__version__,
-            "drake": drake_version, "mujoco": mujoco_version, "cpus": os.cpu_count(), "commit": commit()}
+            "drake": drake_version, "engines": engine_versions, "cpus": os.cpu_count(), "commit": commit()}
 
 
 def build_metrics(spec: dict, records: list[dict], replays: dict[str, str] | None = None) -> dict:
@@ -118,10 +119,11 @@ def sections(metrics: dict, records: list[dict]) -> list[Section]:
              shown(g["value"], g["unit"]), shown(g["threshold"], g["unit"]), g["description"]) for g in ordered])],
         order=90, brief=False))
     env = metrics["environment"]
-    out.append(Section(None, [Text(f"{metrics['created']}; Drake {env['drake']}, MuJoCo {env.get('mujoco', 'unknown')}, "
-                                   f"Python {env['python']}, {env['cpus']} "
-                                   "CPUs. Timings are indicative: compare ratios within this report, not absolute "
-                                   "times across machines.")], order=99, brief=True))  # summary.md too: which Drake ran
+    engines_text = "".join(f", {name} {version}" for name, version in env.get("engines", {}).items())
+    out.append(Section(None, [Text(f"{metrics['created']}, commit {env.get('commit', 'unknown')}; Drake {env['drake']}"
+                                   f"{engines_text}, Python {env['python']}, {env['cpus']} CPUs ({env.get('platform', 'unknown')}). "
+                                   "Timings are indicative: compare ratios within this report, not absolute "
+                                   "times across machines.")], order=0.5, brief=True))  # first screen: which code, Drake and machine
     return out
 
 

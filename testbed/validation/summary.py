@@ -3,8 +3,9 @@ the limits with their figure and bound, and one row per candidate against Drake.
 
 Candidates are what the suite's records measured: the learned predictors (closed-loop and
 scene records, the query study's learned methods), Drake point contact (its closed-loop timing,
-its scene runs against the hydroelastic shadow, the query study) and MuJoCo per contact
-parameter set (the engine records, the query study's mj_collision). Nothing here runs a case.
+its scene runs against the hydroelastic shadow, the query study) and every other engine per
+parameter set (the engine records; its own contact query where the query study times one:
+Engine.query_method). Nothing here runs a case.
 Units: lengths in mm, angles in deg, time per query in us, speed as a ratio of wall times.
 """
 
@@ -14,6 +15,7 @@ import math
 
 from learned_contact import sources
 from testbed.document import Bullets, Section, Text, Verdict, table
+from testbed.engines import alternatives
 from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M, judge as closed_loop_gates
 from testbed.validation.cases import ok_records, registry
 from testbed.validation.gates import is_known_limit, shown
@@ -73,7 +75,7 @@ def head_sections(metrics: dict, records: list[dict]) -> list[Section]:
                  "scenes: the range over scenes of the median per scene (Drake point contact reports a corner of the "
                  "contact face for face-on-face contact, metres from the centre of pressure of a stack). Speeds: the "
                  "predictors and Drake point contact from the closed-loop runs (containers at the learned law's "
-                 "modulus), MuJoCo from the engine runs (the scene's own modulus), each measured side by side with "
+                 "modulus), the other engines from the engine runs, each measured side by side with "
                  "Drake hydroelastic in one process. - : not measured in this suite. " + UNITS)], order=1))
     limits = [g for g in gates if g["passed"] and is_known_limit(g)]
     if limits:
@@ -86,7 +88,7 @@ def head_sections(metrics: dict, records: list[dict]) -> list[Section]:
 
 def candidate_rows(records: list[dict]) -> list[tuple]:
     """One row per candidate the records measured: the predictors, Drake point contact,
-    MuJoCo per parameter set, then the reference (Drake hydroelastic)."""
+    every other engine per parameter set, then the reference (Drake hydroelastic)."""
     closed = [r["result"] for r in ok_records(records, "closed_loop")]
     scenes = [r["result"] for r in ok_records(records, "scene")]
     engine = [r["result"] for r in ok_records(records, "engine") if r["result"].get("available")]
@@ -105,16 +107,17 @@ def candidate_rows(records: list[dict]) -> list[tuple]:
                      "timed only (its trajectory is not compared)", _span(point_speed, fmt=".2g"),
                      _cost(methods.get("drake_point"))))
     rows += soup_rows(methods)
-    for params in dict.fromkeys(p for s in engine for p in s["mujoco"]):
-        runs = [(s["scene"], s["mujoco"][params]) for s in engine if params in s["mujoco"]]
-        within = [scene for scene, f in runs if _within_bounds(f)]
-        rows.append((f"MuJoCo ({params} parameters)",
-                     f"{_median_mm(methods.get('mujoco'))} / "
-                     f"{_span([f['contact_point_error_median_m'] for _, f in runs], 1e3)}",
-                     f"within the closed-loop bounds on {len(within)} of {len(runs)} scenes (not gated)"
-                     + (f"; not on {', '.join(missed)}" if 0 < len(missed := [sc for sc, _ in runs if sc not in within]) <= 3
-                        else ""),
-                     _span([f["speedup_vs_hydroelastic"] for _, f in runs], fmt=".2g"), _cost(methods.get("mujoco"))))
+    for e in alternatives():
+        for params in dict.fromkeys(p for s in engine for p in s.get(e.name, {})):
+            runs = [(s["scene"], s[e.name][params]) for s in engine if params in s.get(e.name, {})]
+            within = [scene for scene, f in runs if _within_bounds(f)]
+            missed = [sc for sc, _ in runs if sc not in within]
+            query = methods.get(e.query_method) if e.query_method else None
+            rows.append((f"{e.label} ({params})",
+                         f"{_median_mm(query)} / {_span([f.get('contact_point_error_median_m') for _, f in runs], 1e3)}",
+                         f"within the closed-loop bounds on {len(within)} of {len(runs)} scenes (not gated)"
+                         + (f"; not on {', '.join(missed)}" if 0 < len(missed) <= 3 else ""),
+                         _span([f["speedup_vs_hydroelastic"] for _, f in runs], fmt=".2g"), _cost(query)))
     if rows and "drake_hydro_cc" in methods:
         rows.append((REFERENCE, "0 / 0", "the ground truth", "1", _cost(methods["drake_hydro_cc"])))
     return rows
@@ -184,7 +187,7 @@ def _closed_verdict(runs) -> str:
 
 
 def _within_bounds(f: dict) -> bool:
-    """A MuJoCo run within the closed-loop gates' bounds: final position and angle, penetration."""
+    """An engine's run within the closed-loop gates' bounds: final position and angle, penetration."""
     figures = (f.get("final_position_error_max_m"), f.get("final_angle_error_max_deg"), f.get("max_penetration_m"))
     bounds = (FINAL_POSITION_TOL_M, FINAL_ANGLE_TOL_DEG, MAX_PENETRATION_M)
     return not f.get("diverged") and all(_finite(v) and v <= b for v, b in zip(figures, bounds))

@@ -84,13 +84,14 @@ def test_drift_not_gated_on_crane_or_short_runs():
 
 def test_engine_runner_returns_what_the_section_reads():
     pytest.importorskip("mujoco")
+    from testbed.engines import engine as engine_of
     from testbed.validation.cases import engine
 
     s = registry()["engine"].run(scene="two_stack", duration=SHORT_S)
-    assert s["available"] and set(s["mujoco"]) == set(engine.PARAMS)
+    assert s["available"] and set(s["mujoco"]) == set(engine_of("mujoco").param_sets)
     assert {"wall_per_sim_s_hydroelastic", "wall_per_sim_s_point", "mujoco_version"} <= set(s)
     for f in s["mujoco"].values():
-        assert set(engine.KEYS) <= set(f)
+        assert set(engine.keys("mujoco")) <= set(f)
         assert f["speedup_vs_hydroelastic"] > 0 and f["position_error_max_m"] >= 0
 
 
@@ -103,7 +104,7 @@ def test_engine_unavailable_without_mujoco(monkeypatch):
     assert "Unavailable: two_stack" in to_markdown("t", [section])
     from testbed.validation.report import _environment
 
-    assert _environment()["mujoco"] == "not installed"
+    assert _environment()["engines"]["mujoco"] == "not installed"
 
 
 def test_sim_sweep_mujoco_curves_and_missing_mujoco(monkeypatch):
@@ -134,9 +135,11 @@ def test_sections_render_to_markdown_and_html(closed_loop_result):
                "energy_gain_J": 0.0, "status": "ok"}
     drake_row = {**sim_row, "engine": "drake", "model": "hydroelastic_with_fallback", "approximation": "sap",
                  "ms_per_sim_second": 500.0}
-    engine_figures = {k: 0.001 for k in engine.KEYS} | {"diverged": False, "contact_normal_error_max_deg": nan}
+    from testbed.engines import engine as engine_of
+
+    engine_figures = {k: 0.001 for k in engine.keys("mujoco")} | {"diverged": False, "contact_normal_error_max_deg": nan}
     engine_result = {"scene": "two_stack", "available": True, "wall_per_sim_s_hydroelastic": 0.5,
-                     "wall_per_sim_s_point": 0.1, "mujoco": {p: engine_figures for p in engine.PARAMS}}
+                     "wall_per_sim_s_point": 0.1, "mujoco": {p: engine_figures for p in engine_of("mujoco").param_sets}}
     kinds = registry()
     parts = (kinds["closed_loop"].sections([_record("closed_loop", closed_loop_result, "closed-two_stack")])
              + kinds["engine"].sections([_record("engine", engine_result)])

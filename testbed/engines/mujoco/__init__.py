@@ -28,6 +28,11 @@ class MujocoEngine(Engine):
     label = "MuJoCo"
     order = 20
     param_sets = PARAM_SETS
+    query_method = "mujoco"
+    report_note = ("MuJoCo: a whole-simulator alternative, with contact parameters 'matched' to Drake's hydroelastic "
+                   "stiffness and its discrete step's dissipation and with MuJoCo's 'default' ones, against Drake's run of "
+                   "the scene's own contact model; its contacts per body pair are reduced to the force-weighted centroid "
+                   "and compared with Drake's centre of pressure in the contact plane.")
 
     def unavailable(self) -> str | None:
         from testbed.engines.mujoco.model import mujoco_module

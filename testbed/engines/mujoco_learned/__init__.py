@@ -12,10 +12,11 @@ file, module:attribute; None: the scene's learned_dynamics predictor if it decla
 
 from __future__ import annotations
 
+from learned_contact import sources
 from testbed.engines import register
 from testbed.engines.base import Engine, EngineRun
 
-DEFAULT_PREDICTOR = "improved"
+DEFAULT_PREDICTOR = sources.DEFAULT
 
 
 @register
@@ -27,6 +28,9 @@ class MujocoLearnedEngine(Engine):
     order = 30
     param_sets = (DEFAULT_PREDICTOR,)  # the predictor is its parameter; any other spec is accepted too
     learned = True  # a predictor decides its contact: judged at the learned law's modulus, by the closed-loop gates
+    report_note = ("MuJoCo + learned: MuJoCo steps the bodies and the shipped predictor decides container-container "
+                   "contact with the learned loop's force law (testbed/engines/mujoco_learned), judged against Drake at "
+                   "the learned law's modulus.")
 
     def unavailable(self) -> str | None:
         from testbed.engines.mujoco import MujocoEngine

@@ -1,18 +1,18 @@
 """Case kind `engine`: the same scenes simulated by the other engines (testbed/engines: every
-registered one but Drake and the gated learned loop; today MuJoCo), against Drake's ground truth.
+registered one but Drake and the gated learned loop), against Drake's ground truth.
 
 One case per scene, one engine_table_row per engine (testbed/engines/comparison.py): Drake's run of the
 scene's own contact model (the ground truth, with its contact log), Drake's bare
-hydroelastic and point-contact runs (for their speed), and MuJoCo with both contact
-parameter sets ('matched' to Drake's hydroelastic stiffness and its discrete step's
-dissipation, and MuJoCo's 'default'), all in one process. Drake runs the scene's own
+hydroelastic and point-contact runs (for their speed), and every other engine with each
+of its parameter sets (Engine.param_sets), all in one process; each engine's own words
+for the report are its Engine.report_note, so adding an engine touches its package only. Drake runs the scene's own
 contact parameters (the shipped 1e9 Pa unless the scene overrides them), not the learned
 twins' 1e8 Pa (testbed.engines.comparison.engine_variant). A missing engine, or a
 scene it cannot translate, makes the case unavailable (a result saying why), not an error.
 Reported, not gated.
 
 Section "The engine users would pick instead": the table per scene and parameter set.
-Its speed-accuracy chart comes from the simulation study's MuJoCo curves: the
+Its speed-accuracy chart comes from the simulation study's engine curves: the
 `sim_sweep` kind places it right after this section (cases/sim_sweep.py: engine_chart_section, at SECTION_ORDER + 1).
 """
 
@@ -21,13 +21,12 @@ from __future__ import annotations
 import math
 
 from testbed.document import Section, Text, table
-from testbed.engines import UnsupportedSceneError, alternatives, engine
+from testbed.engines import UnsupportedSceneError, alternatives
 from testbed.engines.comparison import engine_table_row
 from testbed.validation.cases import Case, CaseKind, register
 
-SECTION_ORDER = 30  # the sim_sweep kind's MuJoCo chart follows at SECTION_ORDER + 1
+SECTION_ORDER = 30  # the sim_sweep kind's engine chart follows at SECTION_ORDER + 1
 SECTION_TITLE = "The engine users would pick instead"
-PARAMS = engine("mujoco").param_sets  # MuJoCo's sets (KEYS: its figures), the engine this section was first written for
 # (scene, simulated duration [s]): each scene's own, nine_mixed_stack cut from 5 s to 2 s
 # (Drake's hydroelastic run of it costs ~7 s per simulated second here, three times over).
 # Measured on 2 busy cores (load ~4.7): 132 s of worker time for all seven (crane_misaligned,
@@ -50,8 +49,6 @@ def keys(name: str) -> tuple:
             "simulated_s_learned")
 
 
-KEYS = keys("mujoco")
-
 
 def engine_cases(scenes) -> list[Case]:
     return [Case(f"engine-{s}", "engine", {"scene": s, "duration": d}) for s, d in scenes]
@@ -61,7 +58,7 @@ def engine_cases(scenes) -> list[Case]:
 class EngineCase(CaseKind):
     name = "engine"
     order = 30
-    timing_keys = ("wall_per_sim_s_mujoco", "wall_per_sim_s_hydroelastic", "wall_per_sim_s_point",
+    timing_keys = ("wall_per_sim_s_hydroelastic", "wall_per_sim_s_point",
                    "speedup_vs_hydroelastic", "speedup_vs_point")
 
     def cases(self, suite: str) -> list[Case]:
@@ -98,15 +95,10 @@ class EngineCase(CaseKind):
             return []
         results = [r["result"] for r in records]
         ran = [s for s in results if s.get("available")]
-        blocks = [Text("Each scene simulated by MuJoCo as a whole-simulator alternative, with contact parameters "
-                       "'matched' to Drake's hydroelastic stiffness and its discrete step's dissipation and with "
-                       "MuJoCo's 'default' ones, "
-                       "against Drake's run of the scene's own contact model (the ground truth). Speed = Drake's wall "
-                       "time per simulated second / MuJoCo's, measured side by side in one process. Contact point: "
-                       "MuJoCo's contacts per body pair reduced to the force-weighted centroid, against Drake's centre "
-                       "of pressure in the contact plane. MuJoCo + learned: MuJoCo steps the bodies and the shipped "
-                       "predictor decides container-container contact with the learned loop's force law "
-                       "(testbed/engines/mujoco_learned), judged against Drake at the learned law's modulus.")]
+        blocks = [Text("Each scene simulated by every other engine (testbed/engines) against Drake's run of the scene's "
+                       "own contact model (the ground truth). Speed = Drake's wall time per simulated second / the "
+                       "engine's, measured side by side in one process.")]
+        blocks += [Text(e.report_note) for e in alternatives() if e.report_note and any(e.name in s for s in ran)]
         if ran:
             blocks.append(Text(summary(ran)))
             blocks.append(table(

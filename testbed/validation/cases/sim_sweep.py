@@ -1,11 +1,11 @@
 """Case kind `sim_sweep`: whole simulations, cost against accuracy (testbed.studies.sim).
 
-A case may ask for other engines' curves beside Drake's (`engines: ["drake", "mujoco"]`;
+A case may ask for other engines' curves beside Drake's (`engines: ["drake", <engine names>]`;
 engine_cases asks for every registered engine with contact of its own: testbed/engines): the
 same time-step sweep simulated by that engine with each of its contact parameter sets, its
 error measured against the fine-step Drake reference of the scene's own contact model.
 Section: the cost/accuracy chart (one curve per engine and contact configuration, Drake
-solid, MuJoCo dashed) and its table."""
+solid, the other engines dashed) and its table."""
 
 from __future__ import annotations
 
@@ -36,8 +36,8 @@ def _case(scene, model, approximation, time_steps, duration, reference_step=1e-4
 
 
 def engine_cases(scenes=ENGINE_SCENES, time_steps=ENGINE_STEPS) -> list[Case]:
-    """Drake (the scene's own model, SAP) and every other engine (testbed.engines.alternatives:
-    MuJoCo) over one time-step sweep, per scene."""
+    """Drake (the scene's own model, SAP) and every other engine (testbed.engines.alternatives)
+    over one time-step sweep, per scene."""
     engines = ("drake", *(e.name for e in alternatives()))
     return [_case(s, SCENE_MODEL, "sap", time_steps, d, engines=engines) for s, d in scenes]
 
@@ -69,12 +69,12 @@ class SimSweepCase(CaseKind):
         if not rows:
             return []
         engine_rows = [row for r in records if _other_engines(r) for row in r["result"]["rows"]]
-        # the Drake configurations on this section's chart; the engine sweeps (Drake and MuJoCo)
+        # the Drake configurations on this section's chart; the engine sweeps (Drake and the others)
         # on their own chart in the engine section (below), when there are both kinds of case
         drake_rows = [row for r in records if not _other_engines(r) for row in r["result"]["rows"]]
         blocks = [Figure("figures/sim.png", "simulation cost vs accuracy", chart(drake_rows or rows))]
         if engine_rows:
-            blocks.insert(0, Text(MUJOCO_NOTE))
+            blocks.insert(0, Text(ENGINE_NOTE))
         blocks.append(table(["scene", "engine", "model", "approximation / parameters", "time step [s]", "ms / sim s",
                              "deviation [mm]", "max penetration [mm]", "energy gain [J]", "status"],
                             [(r["scene"], r.get("engine", "drake"), r["model"], r["approximation"], f"{r['time_step']:g}",
@@ -93,27 +93,28 @@ def _other_engines(record) -> bool:
 
 
 def engine_chart_section(rows) -> Section:
-    """The speed-accuracy chart of the engine sweeps (Drake and MuJoCo on one chart), placed
+    """The speed-accuracy chart of the engine sweeps (Drake and every other engine on one chart), placed
     right after the engine kind's section "The engine users would pick instead" (untitled,
     so it reads as that section's chart)."""
     scenes = sorted({r["scene"] for r in rows})
+    names = [e.label for e in alternatives() if any(r.get("engine") == e.name for r in rows)]
+    others = " and ".join(names) or "the other engines"
     return Section(None, [
-        Text(f"Speed against accuracy, Drake and MuJoCo over one time-step sweep ({', '.join(scenes)}): error is the RMS "
+        Text(f"Speed against accuracy, Drake and {others} over one time-step sweep ({', '.join(scenes)}): error is the RMS "
              "position deviation from Drake's run of the scene's own contact model at the reference step (the same "
              "figures as the simulation study's table)."),
-        Figure("figures/engine_speed_accuracy.png", "MuJoCo and Drake: error vs wall time per simulated second",
-               chart(rows, title="Drake (solid) vs MuJoCo (matched dashed, default dotted); one colour per scene")),
+        Figure("figures/engine_speed_accuracy.png", f"{others} and Drake: error vs wall time per simulated second",
+               chart(rows, title=f"Drake (solid) vs {others} (dashed, dotted per parameter set); one colour per scene")),
     ], order=SECTION_ORDER + 1)
 
 
-MUJOCO_NOTE = ("Drake rows: deviation from the same model's run at the reference step. MuJoCo rows (charted with "
-               "the same scenes' Drake sweeps under 'The engine users would pick instead'; "
-               "'matched' = contact parameters matched to Drake's hydroelastic stiffness and dissipation, 'default' = "
-               "MuJoCo's own): deviation from Drake's run of the scene's own contact model at the reference step, i.e. "
-               "from the ground truth, so a MuJoCo curve levels off at its modelling difference.")
+ENGINE_NOTE = ("Drake rows: deviation from the same model's run at the reference step. Every other engine's rows (charted "
+               "with the same scenes' Drake sweeps under 'The engine users would pick instead', one curve per parameter "
+               "set): deviation from Drake's run of the scene's own contact model at the reference step, i.e. from the "
+               "ground truth, so an engine's curve levels off at its modelling difference.")
 
 
-STYLES = {"matched": "s--", "default": "^:"}  # MuJoCo parameter sets; Drake curves are "o-"
+STYLES = ("s--", "^:", "d-.", "v--")  # an engine's parameter sets, in its param_sets order; Drake curves are "o-"
 
 
 def chart(rows, title="Simulation cost vs accuracy (one curve per engine and contact configuration)") -> bytes:
@@ -134,7 +135,9 @@ def chart(rows, title="Simulation cost vs accuracy (one curve per engine and con
             continue
         colour = cycle[(scenes.index(scene) if len(scenes) > 1 else i) % len(cycle)]
         if engine != "drake":
-            label, style = f"{scene} {registered(engine).label} {approximation}", STYLES.get(approximation, "s--")
+            sets = registered(engine).param_sets
+            style = STYLES[sets.index(approximation) % len(STYLES)] if approximation in sets else STYLES[0]
+            label = f"{scene} {registered(engine).label} {approximation}"
         else:
             label, style = f"{scene} Drake {model} {approximation}", "o-"
         ax.plot([p["ms_per_sim_second"] for p in points], [max(p["deviation_m"], 1e-9) for p in points], style,
