@@ -5,7 +5,12 @@ Model (chosen for a ship-to-shore or gantry crane at container-handling scale):
   length L(t) follow the prescribed `moves` (trapezoidal speed profiles and pauses).
 - Four ropes run from sheaves on the trolley, at height `trolley_height`, straight
   down to the four top corner castings of the container; the spreader's mass is
-  neglected (the container is the pendulum). Each rope is a tension-only
+  neglected (the container is the pendulum). The sheaves lie along the crane's axes
+  (world x, y), turned by the quarter turn nearest the container's initial yaw: a box
+  yawed 90 degrees (long side across the trolley's travel, as a gantry crane carries it
+  over a yard's rows) hangs from sheaves turned with it; one yawed a little off those
+  axes (crane_misaligned's 2 degrees) hangs slightly twisted, the ropes pulling it back.
+  A scene whose ropes would start more than MAX_INITIAL_TILT_RAD off vertical is refused. Each rope is a tension-only
   spring-damper: T = max(0, k (l - L) + c dl/dt), k = rope_EA / L, with damping c
   from `rope_damping_ratio` of the vertical mode of the hanging container. Sway comes
   only from the trolley's acceleration.
@@ -28,6 +33,8 @@ from pydrake.systems.framework import LeafSystem
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.physics import GRAVITY
+
+MAX_INITIAL_TILT_RAD = 0.1  # [rad] a rope more than this off vertical at t = 0 is refused
 
 
 @dataclasses.dataclass
@@ -115,8 +122,11 @@ class RopeModel:
     """The four ropes on one carried container, independent of any simulator (this
     effect's CraneSystem and the MuJoCo translator both use it).
 
-    Rope i runs from the sheave (x_T(t) + sx, y_T + sy, trolley_height) to the top corner
-    casting (sx, sy, h/2) of the container, sx = +-L/2, sy = +-W/2; its tension is
+    Rope i runs from the sheave (x_T(t), y_T, trolley_height) + R_q (sx, sy, 0) to the top
+    corner casting (sx, sy, h/2) of the container (in its frame B), sx = +-L/2, sy = +-W/2,
+    R_q the turn about +z by the multiple of 90 degrees nearest the container's initial
+    yaw (so the ropes hang vertically at t = 0 for a box at 0, 90, 180 or 270 degrees;
+    x_T(0), y_T: the container's initial x, y); its tension is
     T = max(0, (EA / L_r) (l - L_r) + c (dl/dt - dL/dt)), L_r = L0 + dL(t), with L0 set so
     the ropes carry the weight at t = 0 and c for `rope_damping_ratio` of the four ropes.
     """
@@ -126,7 +136,12 @@ class RopeModel:
         self.p_BoC_B = np.array([[sx * half[0], sy * half[1], half[2]] for sx in (-1, 1) for sy in (-1, 1)])  # (4, 3)
         X_WC0 = spec.pose()
         p_WC0 = X_WC0.rotation().matrix() @ self.p_BoC_B.T + X_WC0.translation()[:, None]  # (3, 4) corners
-        self._sheave_offsets = self.p_BoC_B[:, :2].copy()  # (4, 2) sheave x, y offsets from the trolley
+        R_WC0 = X_WC0.rotation().matrix()
+        quarter = round(math.atan2(R_WC0[1, 0], R_WC0[0, 0]) / (0.5 * math.pi)) * 0.5 * math.pi  # [rad]
+        c, s = math.cos(quarter), math.sin(quarter)
+        # (4, 2) [m] sheave x, y offsets from the trolley in W: the corners' (sx, sy) turned by R_q
+        self._sheave_offsets = self.p_BoC_B[:, :2] @ np.array([[c, s], [-s, c]])
+        self._corners0_W = p_WC0.T  # (4, 3) [m] the top corners at t = 0
         self._y_T = X_WC0.translation()[1]
         self._height = config.trolley_height
         length0 = self._height - p_WC0[2].mean()  # mean rope length at t = 0 [m]
@@ -139,6 +154,11 @@ class RopeModel:
         k_total = 4.0 * self._EA / length0
         self._c = 2.0 * config.rope_damping_ratio * math.sqrt(k_total * mass) / 4.0  # per rope [N s/m]
         self.profile = Profile(config.moves, X_WC0.translation()[0])
+
+    def initial_tilt_rad(self) -> float:
+        """[rad] the largest angle from vertical of a rope at t = 0."""
+        rope = self.sheaves_W(0.0) - self._corners0_W  # (4, 3) corner -> sheave
+        return float(np.max(np.arctan2(np.linalg.norm(rope[:, :2], axis=1), rope[:, 2])))
 
     def sheaves_W(self, t: float) -> np.ndarray:
         """(4, 3) sheave positions [m] at time t."""
@@ -281,6 +301,11 @@ class CraneEffect(Effect):
         top = spec.pose().translation()[2] + spec.container_type().half_size[2]
         if self.config.trolley_height < top + 1.0:
             raise self.fail("trolley_height", f"expected at least 1 m above the carried container's top ({top:.2f} m)")
+        tilt = RopeModel(self.config, spec).initial_tilt_rad()
+        if tilt > MAX_INITIAL_TILT_RAD:
+            raise self.fail("container", f"the ropes would start {math.degrees(tilt):.1f} deg off vertical (at most "
+                            f"{math.degrees(MAX_INITIAL_TILT_RAD):.1f}): yaw {self.config.container!r} within a few "
+                            "degrees of a multiple of 90")
 
     def add_systems(self, assembly) -> list:
         self.crane = CraneSystem(assembly, self.config)

@@ -2,8 +2,9 @@
 
 The same model as testbed/effects/crane.py (its RopeModel: trolley profile, rope law,
 static initial stretch and damping; the release rule is CraneSystem's), applied to the carried body through xfrc_applied before every mj_step:
-- rope i runs from the sheave (x_T(t) + sx, y_T + sy, trolley_height) to the top corner
-  casting (sx, sy, h/2) of the container, sx = +-L/2, sy = +-W/2; tension
+- rope i runs from the sheave (x_T(t), y_T, trolley_height) + R_q (sx, sy, 0) to the top
+  corner casting (sx, sy, h/2) of the container, sx = +-L/2, sy = +-W/2, R_q the quarter
+  turn nearest the container's initial yaw (RopeModel); tension
   T = max(0, (EA / L_r) (l - L_r) + c (dl/dt - dL/dt)), L_r = L0 + dL(t);
 - the twistlocks release for good when the container is in contact and descends slower
   than seated_speed (t > 0), or at release_time. As in Drake, where the lock state is a
