@@ -209,12 +209,18 @@ def _ramp_off(t, t_in, t_out):
 
 
 @njit(cache=True)
-def expert_gate(p_c, R_c, pen, domain):
-    """learned_contact.model.expert.gate for one canonical pose."""
+def expert_gate(p_c, R_c, hA, hB, pen, domain):
+    """learned_contact.model.expert.gate for one canonical pose: p_c (3,) [m], R_c (3, 3),
+    half extents hA, hB (3,) [m], pen [m]; domain (11,) DOMAIN_FIELDS (offsets as fractions
+    of the edge of support max(hA_i, hB_i)) or (9,) DOMAIN_FIELDS_V2 (one offset bound [m])."""
     sin_tilt = math.hypot(R_c[0, 2], R_c[1, 2])
-    return (_ramp_off(pen, domain[0], domain[1]) * _ramp_off(sin_tilt, domain[2], domain[3])
-            * _ramp_off(abs(R_c[1, 0]), domain[4], domain[5]) * _ramp_off(abs(p_c[0]), domain[6], domain[7])
-            * _ramp_off(abs(p_c[1]), domain[6], domain[7]))
+    g = (_ramp_off(pen, domain[0], domain[1]) * _ramp_off(sin_tilt, domain[2], domain[3])
+         * _ramp_off(abs(R_c[1, 0]), domain[4], domain[5]))
+    if domain.shape[0] == 9:
+        return g * _ramp_off(abs(p_c[0]), domain[6], domain[7]) * _ramp_off(abs(p_c[1]), domain[6], domain[7])
+    u_x = abs(p_c[0]) / max(hA[0], hB[0])
+    u_y = abs(p_c[1]) / max(hA[1], hB[1])
+    return g * _ramp_off(u_x, domain[6], domain[7]) * _ramp_off(u_y, domain[8], domain[9])
 
 
 @njit(cache=True)
@@ -250,8 +256,8 @@ def slab_ratio(R_c, hA, hB, pen, overlap):
 def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
     """learned_contact.model.expert.weights for one canonical pose: (w_main, w_expert), the
     slab scale included (no expert: g = 0 and r_slab = expert.R_SLAB)."""
-    g = expert_gate(p_c, R_c, pen, domain) if has_expert else 0.0
-    r_slab = domain[8] if has_expert else R_SLAB
+    g = expert_gate(p_c, R_c, hA, hB, pen, domain) if has_expert else 0.0
+    r_slab = domain[domain.shape[0] - 1] if has_expert else R_SLAB
     s = 1.0 - _ramp_off(slab_ratio(R_c, hA, hB, pen, overlap), 0.0, r_slab)
     return (1.0 - g) * s, g * s
 
@@ -261,8 +267,8 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
     the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
     sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
-    the resting expert (eparams, edims, eact: pack_mlp of it; domain (9,): its gate,
-    learned_contact.model.expert.weights), each network evaluated only where its weight is not 0.
+    the resting expert (eparams, edims, eact: pack_mlp of it; domain (11,) or (9,): its gate's
+    bounds in either layout, learned_contact.model.expert.weights), each network evaluated only where its weight is not 0.
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)

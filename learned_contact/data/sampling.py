@@ -35,6 +35,15 @@ Penetration depth is uniform in [0, 3 cm] in both.
   A's x (its length: a 40 ft box bridging two 20 ft ones sits 3 m off each) and 0.6 m
   along A's y, and half of the poses exactly level (roll = pitch = 0: B's z is A's z to
   the last bit), the others with roll and pitch uniform within +-0.05 deg.
+- "resting_support": the resting expert's per-axis gate (issue 30; RESTING_SUPPORT): B resting
+  on A with B's centre offset along A's x by u_x e_x and along A's y by u_y e_y, where
+  e_i = max(h_A,i, h_B,i) is the edge of support along axis i (beyond it neither box's centre
+  of mass lies over the other's face, so neither can rest on the other alone) and u_x, u_y are
+  uniform within +-1 and +-0.5: overhangs out to the edge, a 20 ft box at either end of a 40 ft
+  one, a 40 ft box across two 20 ft ones (u_x = 0.5). Yaw uniform within +-6 deg, overlap
+  log-uniform in 5 um-1 mm; tilt of B's z from A's log-uniform in 1e-9 rad to sin(0.1 deg) in
+  half of the poses (as "resting_level"), roll and pitch uniform within +-0.07 deg in the rest,
+  so that the gate's tilt and depth ramps are trained too.
 """
 
 from __future__ import annotations
@@ -48,7 +57,8 @@ from learned_contact.errors import DatasetError
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
-DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level", "resting_wider")  # append only: the index seeds the stream
+DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level", "resting_wider",
+                 "resting_support")  # append only: the index seeds the stream
 DEFAULT_TYPES = ("1CC", "1AA", "1AAA")
 MAX_DEPTH = 0.03  # [m]
 RESTING_DEPTH = (5e-6, 5e-4)  # [m] log-uniform penetration of the "resting" distribution
@@ -62,6 +72,12 @@ RESTING_LEVEL_TILT = (1e-9, 1e-3)  # [rad] log-uniform tilt of "resting_level"
 # along A's x and y [m], fraction of exactly level poses
 RESTING_WIDER = {"depth": RESTING_DEPTH, "tilt_deg": RESTING_TILT_DEG, "yaw_deg": 6.0, "offset": (3.0, 0.6),
                  "level_fraction": 0.5}
+# "resting_support": depth range [m] log-uniform, roll/pitch bound [deg], log-uniform tilt range [rad] and
+# the fraction of poses drawn so, yaw bound [deg], offset bounds along A's x and y as fractions of the edge of
+# support max(h_A,i, h_B,i)
+RESTING_SUPPORT = {"depth": (5e-6, 1e-3), "tilt_deg": 0.07, "level_tilt": (1e-9, float(np.sin(np.radians(0.1)))),
+                   "level_fraction": 0.5, "yaw_deg": 6.0, "support": (1.0, 0.5)}
+FIXED_RANGES = (*RESTING_RANGES, "resting_wider", "resting_support")  # distributions that refuse max_depth / max_tilt_deg
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,7 +142,7 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
     default 5 deg) widen the ranges for held-out poses outside the training distribution
     (learned_contact/evaluation/gates.py); the defaults are the training ranges and draw exactly the
     same random stream. "resting" has fixed ranges (module docstring) and refuses both."""
-    if (distribution in RESTING_RANGES or distribution == "resting_wider") and (max_depth is not None or max_tilt_deg is not None):
+    if distribution in FIXED_RANGES and (max_depth is not None or max_tilt_deg is not None):
         raise DatasetError(f"the {distribution!r} distribution has fixed ranges; max_depth and max_tilt_deg are "
                            "not accepted")
     max_depth = MAX_DEPTH if max_depth is None else max_depth
@@ -193,6 +209,22 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
         R_AB = rotation_from_rpy(rpy)
         xy = rng.uniform(-np.array(w["offset"]), np.array(w["offset"]), size=(n, 2))
         base = np.concatenate([xy, np.zeros((n, 1))], axis=1)
+        direction = np.tile([0.0, 0.0, 1.0], (n, 1))
+    elif distribution == "resting_support":
+        w = RESTING_SUPPORT
+        depth = np.exp(rng.uniform(*np.log(w["depth"]), size=n))
+        rpy = np.empty((n, 3))
+        rpy[:, :2] = rng.uniform(-np.radians(w["tilt_deg"]), np.radians(w["tilt_deg"]), size=(n, 2))
+        near_level = rng.random(n) < w["level_fraction"]
+        angle = np.exp(rng.uniform(*np.log(w["level_tilt"]), size=n))
+        heading = rng.uniform(0.0, 2.0 * np.pi, size=n)
+        rpy[near_level, 0] = (angle * np.cos(heading))[near_level]
+        rpy[near_level, 1] = (angle * np.sin(heading))[near_level]
+        rpy[:, 2] = rng.uniform(-np.radians(w["yaw_deg"]), np.radians(w["yaw_deg"]), size=n)
+        R_AB = rotation_from_rpy(rpy)
+        edge = np.maximum(half_a[:, :2], half_b[:, :2])  # (n, 2) [m] the edge of support along A's x and y
+        u = rng.uniform(-np.array(w["support"]), np.array(w["support"]), size=(n, 2))
+        base = np.concatenate([u * edge, np.zeros((n, 1))], axis=1)
         direction = np.tile([0.0, 0.0, 1.0], (n, 1))
     else:
         R_AB = random_rotations(rng, n)

@@ -59,7 +59,7 @@ from learned_contact.export import onnx_graph as og
 from learned_contact.export.onnx_graph import IR_VERSION, OPSET, onnx_type
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
 from learned_contact.model.encodings import FLIPS, LENGTH_SCALE, PAPER_FRAME, SYMMETRY_BAND
-from learned_contact.model.expert import R_SLAB
+from learned_contact.model.expert import DOMAIN_FIELDS_V2, R_SLAB
 from learned_contact.predictors.improved import POINT_STEP
 from learned_contact.predictors.loading import load_weights
 from testbed.geometry.boxes import sat_normal
@@ -134,10 +134,12 @@ def _slab_scale(g, R_c, hA, hB, depth, overlap, r_slab):
 
 def _expert_weights(g, p_c, R_c, hA, hB, depth, overlap, domain):
     """(w_main, w_expert) (M, 1) each: learned_contact.model.expert.weights of canonical rows
-    p_c (M, 3), R_c (M, 3, 3), half extents hA, hB (M, 3), depth (M, 1) [m], overlap
+    p_c (M, 3) [m], R_c (M, 3, 3), half extents hA, hB (M, 3) [m], depth (M, 1) [m], overlap
     (M, 15) [m]; both networks are evaluated on every row and blended (where the gate is
     shut and the slab scale is 1 the main network's answer is kept exactly: 1 * y + 0 * y_expert).
-    domain None: no expert (w_expert None, r_slab = expert.R_SLAB)."""
+    domain: the gate's bounds, (11,) DOMAIN_FIELDS (offsets as fractions of the edge of
+    support max(hA_i, hB_i)) or (9,) DOMAIN_FIELDS_V2 (one offset bound [m]); None: no expert
+    (w_expert None, r_slab = expert.R_SLAB)."""
     if domain is None:
         return _slab_scale(g, R_c, hA, hB, depth, overlap, R_SLAB), None
     col = lambda a, k: g.take(a, [k], 1)  # noqa: E731  (n, 1) column k of an (n, 3) array
@@ -145,11 +147,17 @@ def _expert_weights(g, p_c, R_c, hA, hB, depth, overlap, domain):
     sin_tilt = g.op("Sqrt", g.add(g.mul(col(z_B, 0), col(z_B, 0)), g.mul(col(z_B, 1), col(z_B, 1))))
     sin_yaw = g.op("Abs", g.sq(g.take(g.take(R_c, [1], 1), [0], 2), [2]))
     d = [float(v) for v in domain]
+    offset = [g.op("Abs", col(p_c, 0)), g.op("Abs", col(p_c, 1))]
+    if len(d) == len(DOMAIN_FIELDS_V2):
+        bounds = [d[6:8], d[6:8]]
+    else:  # fractions of the edge of support
+        edge = g.op("Max", hA, hB)
+        offset = [g.div(offset[0], col(edge, 0)), g.div(offset[1], col(edge, 1))]
+        bounds = [d[6:8], d[8:10]]
     gate = _ramp_off(g, depth, d[0], d[1])
-    for t, (lo, hi) in ((sin_tilt, d[2:4]), (sin_yaw, d[4:6]), (g.op("Abs", col(p_c, 0)), d[6:8]),
-                        (g.op("Abs", col(p_c, 1)), d[6:8])):
+    for t, (lo, hi) in ((sin_tilt, d[2:4]), (sin_yaw, d[4:6]), (offset[0], bounds[0]), (offset[1], bounds[1])):
         gate = g.mul(gate, _ramp_off(g, t, lo, hi))
-    s = _slab_scale(g, R_c, hA, hB, depth, overlap, d[8])
+    s = _slab_scale(g, R_c, hA, hB, depth, overlap, d[-1])
     return g.mul(g.sub(g.f(1.0), gate), s), g.mul(gate, s)
 
 

@@ -16,13 +16,28 @@ gets the same g):
 - depth: the separating-axis penetration [m];
 - tilt: |B's z axis in A's xy plane| = sin(the angle between B's z and A's z);
 - yaw: |B's x axis along A's y| (about sin of the yaw);
-- x, y: |B's centre along A's x and y| [m] (the horizontal offset).
+- x, y: B's horizontal offset along A's x and y, per axis.
 
-The inner bounds hold the whole "resting" distribution (g = 1 on every one of its poses);
-the outer bounds stay inside "resting_wide", so the expert is trained wherever g > 0.
+Two layouts of the bounds (`expert/domain` in the weights file; the layout is told by its
+length):
+
+- DOMAIN_FIELDS (11 values, format_version 3, issue 30): the offsets are fractions of the
+  edge of support, u_i = |p_c,i| / e_i with e_i = max(h_A,i, h_B,i) (half extents [m]):
+  whichever box lies on the other, its centre of mass leaves the other's face where
+  |p_i| reaches the lower box's half extent, so beyond max(h_A,i, h_B,i) neither can rest
+  on the other alone and u_i = 1 is the edge of support along axis i. Separate bounds
+  for x (A's length: overhangs, a 20 ft box at the end of a 40 ft one at u_x = 0.5, a
+  40 ft box across two 20 ft ones at u_x = 0.5) and y, so opening the gate along the
+  length no longer opens it across. A box beside A (side contact) has u_i >= 1.5.
+- DOMAIN_FIELDS_V2 (9 values, format_version 2, issue 20): one offset bound [m] for both
+  |p_c,x| and |p_c,y|; files of it load and answer as before.
+
+The inner bounds hold the training distributions' core (g = 1 there), the outer bounds
+stay inside what the expert was trained on (ramps included), so the expert is trained
+wherever g > 0 (training.train.default_domain, expert_domain).
 Elsewhere (g = 0) the answer is the main network's, bit for bit; each network is
-evaluated only where its weight is not 0. A crane landing, a deep stack or B far off
-A's centre (the overhang scenes) never reach the expert.
+evaluated only where its weight is not 0. A crane landing, a deep stack or a box beside
+A never reach the expert.
 
 Where the geometric prior is exact the correction vanishes by construction, everywhere
 (issue 30), not only inside the gate. Where B's face is parallel to A's (a level face on
@@ -50,27 +65,50 @@ from __future__ import annotations
 
 import numpy as np
 
+# format_version 3: offsets per axis as fractions of the edge of support (module docstring)
 DOMAIN_FIELDS = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
-                 "offset_in [m]", "offset_out [m]", "r_slab")
+                 "support_x_in", "support_x_out", "support_y_in", "support_y_out", "r_slab")
+# format_version 2 (issue 20): one offset bound [m] for both |p_c,x| and |p_c,y|
+DOMAIN_FIELDS_V2 = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
+                    "offset_in [m]", "offset_out [m]", "r_slab")
+LAYOUTS = {2: DOMAIN_FIELDS_V2, 3: DOMAIN_FIELDS}  # format_version -> the fields of its expert/domain
 # the slab ratio from which the expert's correction is whole (measured: the prior's median error
 # is 0.3 mm for r in 0.001-0.01 and 1.6 mm for r in 0.01-0.03; learned_contact/RESEARCH_LOG.md)
 R_SLAB = 0.01
 
 
-def check_domain(domain) -> str | None:
-    """None if `domain` is a valid gate (9 finite values, 0 <= inner < outer per pair,
-    r_slab > 0), else what is wrong with it."""
+def layout(domain) -> tuple[str, ...]:
+    """The fields of a gate's bounds by their number: DOMAIN_FIELDS (11) or DOMAIN_FIELDS_V2 (9)."""
+    n = len(domain)
+    for fields in LAYOUTS.values():
+        if len(fields) == n:
+            return fields
+    raise ValueError(f"a gate of {n} values; expected {len(DOMAIN_FIELDS)} (DOMAIN_FIELDS) or "
+                     f"{len(DOMAIN_FIELDS_V2)} (DOMAIN_FIELDS_V2)")
+
+
+def check_domain(domain, version: int = 3) -> str | None:
+    """None if `domain` is a valid gate of format_version `version`'s layout (LAYOUTS: all
+    values finite, 0 <= inner < outer per pair, r_slab > 0), else what is wrong with it."""
+    fields = LAYOUTS[version]
     d = np.asarray(domain, dtype=float)
-    if d.shape != (len(DOMAIN_FIELDS),):
-        return f"has shape {d.shape}, expected ({len(DOMAIN_FIELDS)},)"
+    if d.shape != (len(fields),):
+        return f"has shape {d.shape}, expected ({len(fields)},) for format_version {version}"
     if not np.all(np.isfinite(d)):
         return "holds NaN or inf"
-    for k in range(4):
+    for k in range((len(fields) - 1) // 2):
         if not 0.0 <= d[2 * k] < d[2 * k + 1]:
-            return f"{DOMAIN_FIELDS[2 * k]} = {d[2 * k]} and {DOMAIN_FIELDS[2 * k + 1]} = {d[2 * k + 1]}: expected 0 <= in < out"
-    if not d[8] > 0.0:
-        return f"r_slab = {d[8]}: expected > 0"
+            return f"{fields[2 * k]} = {d[2 * k]} and {fields[2 * k + 1]} = {d[2 * k + 1]}: expected 0 <= in < out"
+    if not d[-1] > 0.0:
+        return f"r_slab = {d[-1]}: expected > 0"
     return None
+
+
+def support(p_c, h_A, h_B) -> np.ndarray:
+    """(n, 2) u = |p_c,i| / max(h_A,i, h_B,i) for i = x, y: B's offset from A's centre as a
+    fraction of the edge of support (module docstring); p_c (n, 3) [m], half extents
+    h_A, h_B (n, 3) [m]."""
+    return np.abs(p_c[:, :2]) / np.maximum(h_A[:, :2], h_B[:, :2])
 
 
 def _ramp_off(t, t_in, t_out):
@@ -79,13 +117,20 @@ def _ramp_off(t, t_in, t_out):
     return 1.0 - u * u * (3.0 - 2.0 * u)
 
 
-def gate(p_c, R_c, depth, domain) -> np.ndarray:
+def gate(p_c, R_c, depth, domain, h_A=None, h_B=None) -> np.ndarray:
     """(n,) the expert's weight g in [0, 1] for canonical poses p_c (n, 3) [m], R_c
-    (n, 3, 3) (columns: B's axes in A's reflected frame), separating-axis depth (n,) [m]."""
+    (n, 3, 3) (columns: B's axes in A's reflected frame), separating-axis depth (n,) [m];
+    domain: DOMAIN_FIELDS (then half extents h_A, h_B (n, 3) [m] are needed) or
+    DOMAIN_FIELDS_V2 (absolute offsets)."""
     d = np.asarray(domain, dtype=float)
     sin_tilt = np.hypot(R_c[:, 0, 2], R_c[:, 1, 2])
-    return (_ramp_off(depth, d[0], d[1]) * _ramp_off(sin_tilt, d[2], d[3]) * _ramp_off(np.abs(R_c[:, 1, 0]), d[4], d[5])
-            * _ramp_off(np.abs(p_c[:, 0]), d[6], d[7]) * _ramp_off(np.abs(p_c[:, 1]), d[6], d[7]))
+    g = _ramp_off(depth, d[0], d[1]) * _ramp_off(sin_tilt, d[2], d[3]) * _ramp_off(np.abs(R_c[:, 1, 0]), d[4], d[5])
+    if layout(d) is DOMAIN_FIELDS_V2:
+        return g * _ramp_off(np.abs(p_c[:, 0]), d[6], d[7]) * _ramp_off(np.abs(p_c[:, 1]), d[6], d[7])
+    if h_A is None or h_B is None:
+        raise ValueError("a DOMAIN_FIELDS gate needs the half extents h_A and h_B")
+    u = support(p_c, h_A, h_B)
+    return g * _ramp_off(u[:, 0], d[6], d[7]) * _ramp_off(u[:, 1], d[8], d[9])
 
 
 def slab_axes(R_c, overlap) -> tuple[np.ndarray, np.ndarray]:
@@ -134,13 +179,15 @@ def slab_ratio(R_c, h_A, h_B, depth, axes=None) -> np.ndarray:
 def weights(p_c, R_c, h_A, h_B, depth, domain, overlap=None) -> tuple[np.ndarray, np.ndarray]:
     """(w_main (n,), w_expert (n,)): the weights of the main network's and the expert's
     correction, w_main = (1 - g) s, w_expert = g s (module docstring); s is the slab
-    scale (slab_scale with domain's r_slab; on A's top face when `overlap` is None).
-    domain None: no expert (g = 0, r_slab = R_SLAB)."""
+    scale (smoothstep(slab_ratio / r_slab) with domain's r_slab, its last value; on A's top
+    face when `overlap` is None). p_c (n, 3) [m], R_c (n, 3, 3), half extents h_A, h_B (n, 3)
+    [m], depth (n,) [m], overlap (n, 15) [m]; domain: either layout (`gate`), or None: no
+    expert (g = 0, r_slab = R_SLAB)."""
     if domain is None:
         g, r_slab = np.zeros(len(R_c)), R_SLAB
     else:
         d = np.asarray(domain, dtype=float)
-        g, r_slab = gate(p_c, R_c, depth, d), d[8]
+        g, r_slab = gate(p_c, R_c, depth, d, h_A, h_B), d[-1]
     axes = None if overlap is None else slab_axes(R_c, overlap)
     s = 1.0 - _ramp_off(slab_ratio(R_c, h_A, h_B, depth, axes), 0.0, r_slab)
     return (1.0 - g) * s, g * s

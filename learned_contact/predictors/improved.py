@@ -24,9 +24,9 @@ import numpy as np
 
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
 from learned_contact.model.encodings import features, frame_blend, reflect
-from learned_contact.model.expert import weights
+from learned_contact.model.expert import DOMAIN_FIELDS, LAYOUTS, layout, weights
 from learned_contact.model.mlp import NumpyMLP
-from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, MLPPredictor
+from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, SUPPORT_FORMAT_VERSION, MLPPredictor
 from testbed.geometry.boxes import sat_normal
 
 SHIPPED_DIR = Path(__file__).resolve().parents[1] / "shipped"
@@ -34,7 +34,7 @@ DEFAULT_WEIGHTS = SHIPPED_DIR / "weights.npz"
 POINT_STEP = 0.5  # [m] per unit of the MLP's point outputs
 
 __all__ = ["CLIP_MARGIN", "DEFAULT_WEIGHTS", "DOMAIN_DEPTH", "EXPERT_FORMAT_VERSION", "FORMAT_VERSION", "POINT_STEP", "SHIPPED_DIR",
-           "SIZE_TOLERANCE", "ContactPredictor"]
+           "SIZE_TOLERANCE", "SUPPORT_FORMAT_VERSION", "ContactPredictor"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,8 +43,10 @@ class ContactPredictor(MLPPredictor):
     module docstring); the interface is learned_contact.interface.Predictor.
 
     expert: the resting expert (same input and output widths as mlp) or None;
-    expert_domain (9,): its gate's bounds (learned_contact.model.expert.DOMAIN_FIELDS),
-    given exactly when expert is."""
+    expert_domain (11,) or (9,): its gate's bounds (learned_contact.model.expert.DOMAIN_FIELDS,
+    offsets as fractions of the edge of support, saved as format_version 3; or the issue-20
+    layout DOMAIN_FIELDS_V2, absolute offsets [m], format_version 2), given exactly when
+    expert is."""
 
     kind = "improved"
     expert: NumpyMLP | None = None
@@ -55,11 +57,12 @@ class ContactPredictor(MLPPredictor):
             raise ValueError("expert and expert_domain go together: give both or neither")
         if self.expert is not None:
             object.__setattr__(self, "expert_domain", np.asarray(self.expert_domain, dtype=float).copy())
+            layout(self.expert_domain)  # 9 or 11 values, else ValueError
         if self.compiled:
             from learned_contact.compiled import pack_mlp
 
             packed = pack_mlp(self.expert if self.expert is not None else self.mlp)
-            domain = self.expert_domain if self.expert is not None else np.zeros(9)
+            domain = self.expert_domain if self.expert is not None else np.zeros(len(DOMAIN_FIELDS))
             object.__setattr__(self, "_packed_expert", (*packed, np.ascontiguousarray(domain), self.expert is not None))
         super().__post_init__()
 
@@ -80,7 +83,8 @@ class ContactPredictor(MLPPredictor):
     def _extra_arrays(self):
         if self.expert is None:
             return FORMAT_VERSION, {}
-        return EXPERT_FORMAT_VERSION, {**self.expert.to_arrays("expert/"), "expert/domain": self.expert_domain}
+        version = next(v for v, fields in LAYOUTS.items() if fields is layout(self.expert_domain))
+        return version, {**self.expert.to_arrays("expert/"), "expert/domain": self.expert_domain}
 
     def _predict_numpy(self, p, R, sA, sB, with_depth: bool):
         h_A = 0.5 * sA

@@ -11,8 +11,11 @@ A weights file is an .npz with: format_version (int, FORMAT_VERSION), kind ("imp
 or "paper"), supported_sizes (k, 3) full extents [m], meta (JSON string) and the network
 under mlp/ (x_mean, x_std, activation, W0.., b0..; W_i (in, out)). An improved file may
 carry a resting expert (learned_contact.model.expert): a second network of the same widths
-under expert/ and its gate's bounds, expert/domain (8,); such a file has format_version
-EXPERT_FORMAT_VERSION (2), so that no reader of version 1 answers without it. Files written before
+under expert/ and its gate's bounds, expert/domain: (11,) learned_contact.model.expert.DOMAIN_FIELDS
+(offsets per axis as fractions of the edge of support) in a file of format_version
+SUPPORT_FORMAT_VERSION (3), or (9,) DOMAIN_FIELDS_V2 (one offset bound [m]) in a file of
+EXPERT_FORMAT_VERSION (2); so no reader of version 1 answers without the expert and no
+reader of version 2 reads fractions as metres. Files written before
 `kind` existed are recognised by their arrays (the improved file has supported_sizes,
 the paper file a 6-input network and no version).
 """
@@ -26,9 +29,9 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.errors import WeightsError, weights_error
-from learned_contact.model.expert import check_domain
+from learned_contact.model.expert import LAYOUTS, check_domain
 from learned_contact.model.mlp import ACTIVATIONS, NumpyMLP
-from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, FORMAT_VERSIONS
+from learned_contact.predictors.base import EXPERT_FORMAT_VERSIONS, FORMAT_VERSION, FORMAT_VERSIONS
 from learned_contact.predictors.improved import DEFAULT_WEIGHTS, SHIPPED_DIR, ContactPredictor
 from learned_contact.predictors.paper import PaperPredictor
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -123,23 +126,26 @@ def _mlp(arrays: dict, path, kind: str, prefix: str = "mlp/") -> NumpyMLP:
 
 
 def _expert(arrays: dict, path, kind: str, version: int) -> dict:
-    """{"expert": NumpyMLP, "expert_domain": (8,)} of a file carrying a resting expert, else {}."""
+    """{"expert": NumpyMLP, "expert_domain": (11,) or (9,)} of a file carrying a resting expert
+    (format_version 3 or 2: the layout of expert/domain, learned_contact.model.expert.LAYOUTS), else {}."""
     has = any(k.startswith("expert/") for k in arrays)
+    versions = " or ".join(map(str, EXPERT_FORMAT_VERSIONS))
     if not has:
-        if version == EXPERT_FORMAT_VERSION:
+        if version in EXPERT_FORMAT_VERSIONS:
             raise _fail(path, "expert/W0", f"is missing (format_version {version} carries a resting expert)",
                         f"expert/ arrays, or format_version {FORMAT_VERSION}")
         return {}
     if kind != "improved":
         raise _fail(path, "expert/*", f"is present in a {kind!r} file", "a resting expert only in an improved file")
-    if version != EXPERT_FORMAT_VERSION:
-        raise _fail(path, "format_version", f"is {version} but the file carries a resting expert (expert/)",
-                    f"{EXPERT_FORMAT_VERSION}")
+    if version not in EXPERT_FORMAT_VERSIONS:
+        raise _fail(path, "format_version", f"is {version} but the file carries a resting expert (expert/)", versions)
+    n = len(LAYOUTS[version])
     if "expert/domain" not in arrays:
-        raise _fail(path, "expert/domain", "is missing", "(8,) the expert gate's bounds (learned_contact.model.expert)")
-    problem = check_domain(arrays["expert/domain"])
+        raise _fail(path, "expert/domain", "is missing", f"({n},) the expert gate's bounds (learned_contact.model.expert)")
+    problem = check_domain(arrays["expert/domain"], version)
     if problem:
-        raise _fail(path, "expert/domain", problem, "the expert gate's bounds (learned_contact.model.expert.DOMAIN_FIELDS)")
+        raise _fail(path, "expert/domain", problem,
+                    f"the expert gate's bounds of format_version {version} (learned_contact.model.expert.LAYOUTS)")
     return {"expert": _mlp(arrays, path, kind, "expert/"),
             "expert_domain": np.asarray(arrays["expert/domain"], dtype=float)}
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.data.labels import Dataset, make_dataset
-from learned_contact.data.sampling import MAX_DEPTH, RESTING_RANGES
+from learned_contact.data.sampling import MAX_DEPTH, RESTING_RANGES, RESTING_SUPPORT, RESTING_WIDER
 from learned_contact.evaluation.metrics import evaluate, paper_table
 from learned_contact.evaluation.report import write_report
 from learned_contact.model.encodings import canonicalise, features, frame_blend, reflect
@@ -45,6 +45,19 @@ class ExpertConfig:
     n_resting_level: int = 60_000  # labelled "resting_level" poses: tilts down to 1e-9 rad
     epochs: int = 160
     point_beta: float = 0.005  # [m] smooth L1 beta of the point loss
+    # issue 30: labelled "resting_wider" and "resting_support" poses (overhangs, bridges, yaw to 6 deg)
+    n_resting_wider: int = 0
+    n_resting_support: int = 0
+    # times each of the three narrow sets ("resting", "resting_wide", "resting_level") is repeated in the
+    # training pool (its weight in the loss against the wider sets)
+    narrow_repeat: int = 1
+    # the gate's layout: "v2" (default_domain: one offset bound [m], format_version 2) or "support"
+    # (support_domain: offsets per axis as fractions of the edge of support, format_version 3)
+    gate: str = "v2"
+
+    def domain(self) -> np.ndarray:
+        """The gate's bounds this expert is trained for (default_domain or support_domain)."""
+        return support_domain() if self.gate == "support" else default_domain()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,6 +104,10 @@ class TrainConfig:
 # The resting-regime candidate of issue 20 (not shipped; figures in learned_contact/RESEARCH_LOG.md):
 # the shipped recipe plus 60 000 resting poses and 80 epochs (beta 1 cm: see the README).
 RESTING_RECIPE = {"n_resting": 60_000, "epochs": 80}
+# Issue 30's candidate expert (the per-axis gate on the edge of support; learned_contact/README.md):
+# the narrow sets of 20 000 poses repeated 3 times, 60 000 "resting_wider" and 60 000 "resting_support"
+SUPPORT_EXPERT = ExpertConfig(n_resting=20_000, n_resting_wide=20_000, n_resting_level=20_000, n_resting_wider=60_000,
+                              n_resting_support=60_000, narrow_repeat=3, epochs=120, gate="support")
 
 
 
@@ -104,6 +121,22 @@ def default_domain() -> np.ndarray:
     s = lambda deg: float(np.sin(np.radians(deg)))  # noqa: E731
     return np.array([1.1 * d_in, d_out, s(1.01 * np.sqrt(2.0) * tilt_in), s(tilt_out), s(1.01 * yaw_in), s(yaw_out),
                      off_in, off_out, R_SLAB])
+
+
+def support_domain() -> np.ndarray:
+    """(11,) the gate's bounds in the layout of expert.DOMAIN_FIELDS (format_version 3): depth
+    and tilt as default_domain (inner "resting", outer "resting_wide" and "resting_support"); yaw
+    5 -> 6 deg (a landing's: "resting_wider" and "resting_support" draw within 6 deg); B's offset
+    along A's x as a fraction of the edge of support 0.9 -> 1.0 (overhangs out to the edge of
+    support, where a box's centre of mass leaves the face below it; "resting_support" draws it
+    up to 1.0), along A's y 0.45 -> 0.5 (what "resting_wider", 0.6 m of 1.219 m, and
+    "resting_support" train; a landing leaves much less: crane_misaligned 6 cm); r_slab R_SLAB."""
+    d = default_domain()
+    s = lambda deg: float(np.sin(np.radians(deg)))  # noqa: E731
+    yaw_out = min(RESTING_WIDER["yaw_deg"], RESTING_SUPPORT["yaw_deg"])
+    x_out, y_out = RESTING_SUPPORT["support"]
+    return np.array([d[0], d[1], d[2], d[3], s(yaw_out - 1.0), s(yaw_out), 0.9 * x_out, x_out, 0.9 * y_out, y_out,
+                     R_SLAB])
 
 
 def _split(ds: Dataset, n_val: int):
@@ -220,22 +253,47 @@ def default_datasets(config: TrainConfig, *, progress: bool = True) -> dict:
         out["expert_resting_wide"] = make_dataset("resting_wide", config.expert.n_resting_wide, s_tr, **kw)
         if config.expert.n_resting_level:
             out["expert_resting_level"] = make_dataset("resting_level", config.expert.n_resting_level, s_tr, **kw)
+        for dist in ("resting_wider", "resting_support"):
+            n = getattr(config.expert, f"n_{dist}")
+            if n:
+                out[f"expert_{dist}"] = make_dataset(dist, n, s_tr, **kw)
     if config.n_test_resting:
         out["resting_test"] = make_dataset("resting", config.n_test_resting, s_te, **kw)
     return out
 
 
+EXPERT_SETS = ("expert_resting", "expert_resting_wide", "expert_resting_level", "expert_resting_wider",
+               "expert_resting_support")
+NARROW_SETS = EXPERT_SETS[:3]
+
+
 def train_expert(data: dict, config: TrainConfig, *, progress: bool = True):
     """The resting expert of `config` on the labelled sets of default_datasets:
     (NumpyMLP, info dict, validation Datasets per distribution). The main network's
-    recipe with ExpertConfig's epochs and point beta, on "resting", "resting_wide" and
-    "resting_level" poses only (10 % of each held for validation)."""
+    recipe with ExpertConfig's epochs and point beta, on the resting sets only (10 % of
+    each held for validation; the narrow sets' training part repeated narrow_repeat times)."""
     ex = config.expert
-    pools = [_split(data[k], int(config.n_val_fraction * len(data[k])))
-             for k in ("expert_resting", "expert_resting_wide", "expert_resting_level") if k in data]
+    pools = [(k, *_split(data[k], int(config.n_val_fraction * len(data[k])))) for k in EXPERT_SETS if k in data]
+    train = [t for k, t, _ in pools for _ in range(ex.narrow_repeat if k in NARROW_SETS else 1)]
     recipe = dataclasses.replace(config, epochs=ex.epochs, point_beta=ex.point_beta, mirror=False, deep_weight=0.0)
-    mlp, info = train_improved(_concat([t for t, _ in pools]), _concat([v for _, v in pools]), recipe, progress=progress)
-    return mlp, info, tuple(v for _, v in pools)
+    mlp, info = train_improved(_concat(train), _concat([v for _, _, v in pools]), recipe, progress=progress)
+    return mlp, info, tuple(v for _, _, v in pools)
+
+
+def refit_expert(base: ContactPredictor, config: TrainConfig, *, progress: bool = True):
+    """(ContactPredictor, info): `base`'s main network with a resting expert re-fitted by
+    config.expert (its sets labelled or read from the cache, sampling seed 10 * config.seed +
+    SEED_TRAIN) and its gate config.expert.domain(); the main network is not retrained."""
+    kw = dict(types=config.types, workers=config.workers, progress=progress)
+    ex, s_tr = config.expert, 10 * config.seed + SEED_TRAIN
+    data = {f"expert_{dist}": make_dataset(dist, n, s_tr, **kw)
+            for dist, n in (("resting", ex.n_resting), ("resting_wide", ex.n_resting_wide),
+                            ("resting_level", ex.n_resting_level), ("resting_wider", ex.n_resting_wider),
+                            ("resting_support", ex.n_resting_support)) if n}
+    expert, info, _ = train_expert(data, config, progress=progress)
+    meta = {**base.meta, "config": {**base.meta.get("config", {}), "expert": dataclasses.asdict(ex)},
+            "train_info": {**base.meta.get("train_info", {}), "expert_best_val_loss": info["best_val_loss"]}}
+    return dataclasses.replace(base, expert=expert, expert_domain=ex.domain(), meta=meta), info
 
 
 def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: TrainConfig | None = None) -> dict:
@@ -260,7 +318,7 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
     extra, expert_val = {}, ()
     if config.expert is not None:
         expert, expert_info, expert_val = train_expert(data, config, progress=progress)
-        extra = {"expert": expert, "expert_domain": default_domain()}
+        extra = {"expert": expert, "expert_domain": config.expert.domain()}
         meta["train_info"]["expert_best_val_loss"] = expert_info["best_val_loss"]
     predictor = ContactPredictor(mlp, sizes, meta, **extra)
     t_improved = time.perf_counter() - t0 - t_labels

@@ -50,3 +50,23 @@ def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, mo
     train_default(tmp_path / "plain", seed=3, progress=False, config=TINY)
     a, b = load_predictor(tmp_path / "r" / "weights.npz"), load_predictor(tmp_path / "plain" / "weights.npz")
     assert not np.allclose(a.mlp.weights[0], b.mlp.weights[0])
+
+
+@pytest.mark.slow
+def test_refit_expert_keeps_the_main_network_and_takes_the_support_gate(tmp_path, monkeypatch):
+    """training.refit_expert (issue 30): a new expert on the wider resting sets beside the shipped
+    main network, unchanged bit for bit; with gate="support" its bounds are support_domain() and
+    it saves as format_version 3."""
+    from learned_contact.training.train import refit_expert, support_domain
+
+    monkeypatch.setenv("TESTBED_CACHE", str(tmp_path / "cache"))
+    shipped = load_predictor(compiled=False)
+    ex = ExpertConfig(n_resting=300, n_resting_wide=0, n_resting_level=0, n_resting_wider=300, n_resting_support=300,
+                      narrow_repeat=2, epochs=2, gate="support")
+    new, info = refit_expert(shipped, TrainConfig(expert=ex), progress=False)
+    for a, b in zip(new.mlp.weights + new.mlp.biases, shipped.mlp.weights + shipped.mlp.biases):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(new.expert_domain, support_domain())
+    assert new.meta["config"]["expert"]["n_resting_support"] == 300 and len(info["val_loss_history"]) == 2
+    with np.load(new.save(tmp_path / "w.npz")) as z:
+        assert int(z["format_version"]) == 3

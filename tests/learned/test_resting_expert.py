@@ -223,3 +223,147 @@ def test_near_level_stacks_are_answered_within_2_mm_where_the_prior_is_not():
     level = slab_ratio(R_c, 0.5 * ds.size_A, 0.5 * ds.size_B, ds.depth) < R_SLAB
     assert level.sum() > 50
     assert np.median(mine[level]) <= np.median(prior[level])
+
+
+# ---------------------------------------------------------------------------------------------
+# The per-axis gate on the edge of support (issue 30, format_version 3: expert.DOMAIN_FIELDS)
+
+SIZE_40FT = np.array([12.192, 2.438, 2.591])
+
+
+@pytest.fixture(scope="module")
+def support_paths():
+    """{path: the shipped networks with the support layout's gate (training.support_domain)}."""
+    from learned_contact.training.train import support_domain
+
+    ref = dataclasses.replace(load_predictor(compiled=False), expert_domain=support_domain())
+    return {"numpy": ref, "compiled": ref.with_compiled(True)}
+
+
+def _support_gate(p, R, sA, sB):
+    from learned_contact.training.train import support_domain
+
+    sigma = np.where(p >= 0.0, 1.0, -1.0)
+    p_c, R_c = reflect(sigma, p, R)
+    return gate(p_c, R_c, sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1], support_domain(), 0.5 * sA, 0.5 * sB)
+
+
+def _pair(size_A, size_B, x=0.0, y=0.0, depth=2e-4, roll_deg=0.01, yaw_deg=0.0):
+    """B (size_B) resting on A (size_A) with its centre at (x, y) [m] in A, `depth` [m] deep."""
+    R = rotation_from_rpy(np.radians([[roll_deg, 0.0, yaw_deg]]))
+    p = np.array([[x, y, 0.5 * (size_A[2] + size_B[2])]])
+    lift = sat_normal(p, R, 0.5 * size_A[None], 0.5 * size_B[None])[1]
+    return p - np.array([[0.0, 0.0, depth - lift[0]]]), R, size_A[None], size_B[None]
+
+
+@pytest.mark.parametrize("pose, expected", [
+    (dict(x=0.9 * 3.029), 1.0),  # 20 ft on 20 ft, B's centre 0.9 of the way to A's edge
+    (dict(x=1.0001 * 3.029), 0.0),  # beyond the edge of support (overhang_tip: 3.129 m)
+    (dict(x=3.129), 0.0),
+    (dict(y=0.45 * 1.219), 1.0),
+    (dict(y=0.5001 * 1.219), 0.0),
+    (dict(x=2.7, y=0.7), 0.0),  # open along x does not open across: y = 0.7 m is 0.57 of the edge
+    (dict(yaw_deg=5.0), 1.0),
+    (dict(yaw_deg=6.001), 0.0),
+])
+def test_the_support_gate_holds_its_bounds_per_axis(pose, expected):
+    """Offsets are fractions of the edge of support max(h_A,i, h_B,i) with separate bounds
+    along A's x (0.9 -> 1.0) and y (0.45 -> 0.5); yaw 5 -> 6 deg."""
+    assert _support_gate(*_pair(SIZE_20FT, SIZE_20FT, **pose))[0] == expected
+
+
+def test_the_support_gate_opens_on_bridges_and_end_stacks_and_shuts_beside():
+    """A 20 ft box at either end of a 40 ft one and a 40 ft box across two 20 ft ones (bridge:
+    3.048 m off each support's centre) sit at half the edge of support, either way round; a box
+    beside A along x or y (side contact, B's z level) is beyond it."""
+    for sA, sB, x in ((SIZE_40FT, SIZE_20FT, 3.067), (SIZE_20FT, SIZE_40FT, 3.067), (SIZE_20FT, SIZE_40FT, 3.048),
+                      (SIZE_40FT, SIZE_20FT, -3.048)):
+        assert _support_gate(*_pair(sA, sB, x=x))[0] == 1.0
+    R = np.eye(3)[None]
+    for p in ([[0.5 * (6.058 + 6.058) - 1e-4, 0.0, 0.0]], [[0.0, 2.438 - 1e-4, 0.0]]):
+        assert _support_gate(np.array(p), R, SIZE_20FT[None], SIZE_20FT[None])[0] == 0.0
+
+
+def test_the_support_gate_is_the_same_in_every_frame_and_trained_where_it_opens():
+    """On "resting_support" poses (the distribution the support layout's outer bounds come
+    from) the gate is open on a share, ramping on a share and shut only beyond the tilt disc;
+    every octant frame of a pose gets the same g."""
+    p, R, sA, sB = probe_poses(3000, 33, "resting_support")
+    g = _support_gate(p, R, sA, sB)
+    assert np.mean(g == 1.0) > 0.2 and np.mean((g > 0.0) & (g < 1.0)) > 0.3
+    depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
+    from learned_contact.training.train import support_domain
+
+    for sigma, _ in frame_blend(p):
+        p_c, R_c = reflect(sigma, p, R)
+        np.testing.assert_array_equal(gate(p_c, R_c, depth, support_domain(), 0.5 * sA, 0.5 * sB), g)
+
+
+def test_compiled_equals_numpy_with_the_support_gate(support_paths):
+    """The numba kernel's support layout against the numpy reference (1e-9), ramps included:
+    resting_support (overhangs to the edge of support, 20 ft/40 ft pairs), resting_wider."""
+    for k, dist in enumerate(("resting_support", "resting_wider", "resting")):
+        p, R, sA, sB = probe_poses(1500, 71 + k, dist)
+        a = support_paths["compiled"].predict(p, R, size_A=sA, size_B=sB)
+        b = support_paths["numpy"].predict(p, R, size_A=sA, size_B=sB)
+        np.testing.assert_allclose(a[0], b[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(a[1], b[1], rtol=0, atol=1e-9)
+
+
+def test_the_support_hand_over_is_continuous(support_paths):
+    """Across the x ramp (0.9 -> 1.0 of the edge of support: 2.726-3.029 m on a 20 ft pair) a
+    step of 1e-9 m moves the answer by < 1e-6, at both bounds and mid-ramp."""
+    pred = support_paths["numpy"]
+    for x in (0.9 * 3.029, 0.95 * 3.029, 3.029):
+        a = pred.predict(*_pair(SIZE_20FT, SIZE_20FT, x=x)[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        b = pred.predict(*_pair(SIZE_20FT, SIZE_20FT, x=x + 1e-9)[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        assert np.abs(a[0] - b[0]).max() < 1e-6 and np.abs(a[1] - b[1]).max() < 1e-6
+
+
+def test_the_support_layout_saves_as_version_3_and_both_versions_load(support_paths, shipped, tmp_path):
+    """A support-layout expert saves as format_version 3 with 11 bounds and loads back with the
+    same answers on both paths; a version-2 file (9 bounds in metres: the issue-20 layout) loads
+    as before; a file whose bounds do not match its version is refused naming the field."""
+    path = support_paths["numpy"].save(tmp_path / "v3.npz")
+    with np.load(path) as z:
+        assert int(z["format_version"]) == 3 and z["expert/domain"].shape == (11,)
+        arrays = dict(z)
+    p, R, sA, sB = probe_poses(300, 81, "resting_support")
+    for compiled in (False, True):
+        back = load_predictor(path, compiled=compiled)
+        np.testing.assert_allclose(back.predict(p, R, size_A=sA, size_B=sB)[0],
+                                   support_paths["numpy"].predict(p, R, size_A=sA, size_B=sB)[0], rtol=0, atol=1e-9)
+    v2 = shipped.save(tmp_path / "v2.npz")
+    with np.load(v2) as z:
+        assert int(z["format_version"]) == 2 and z["expert/domain"].shape == (9,)
+    np.testing.assert_array_equal(load_predictor(v2).expert_domain, shipped.expert_domain)
+    np.savez(tmp_path / "short.npz", **{**arrays, "expert/domain": shipped.expert_domain})
+    with pytest.raises(WeightsError, match=r"field 'expert/domain' has shape \(9,\), expected \(11,\)"):
+        load_predictor(tmp_path / "short.npz")
+    np.savez(tmp_path / "long.npz", **{**arrays, "format_version": np.array(2)})
+    with pytest.raises(WeightsError, match=r"field 'expert/domain' has shape \(11,\), expected \(9,\)"):
+        load_predictor(tmp_path / "long.npz")
+    bad = arrays["expert/domain"].copy()
+    bad[[8, 9]] = bad[[9, 8]]
+    np.savez(tmp_path / "swapped.npz", **{**arrays, "expert/domain": bad})
+    with pytest.raises(WeightsError, match="support_y_in"):
+        load_predictor(tmp_path / "swapped.npz")
+
+
+def test_the_onnx_export_holds_the_support_gate(support_paths, tmp_path):
+    """The ONNX graph of a support-layout expert agrees with the compiled path to the export's
+    tolerances (1e-6 m, 1e-5 deg) where the gate opens, ramps and shuts."""
+    pytest.importorskip("onnx")
+    pytest.importorskip("onnxruntime")
+    from learned_contact.export.onnx_export import export_onnx, onnx_session, run_onnx
+
+    onnx_path = export_onnx(support_paths["numpy"].save(tmp_path / "v3.npz"), tmp_path / "v3.onnx")
+    session = onnx_session(onnx_path)
+    for k, dist in enumerate(("resting_support", "resting_wider")):
+        p, R, sA, sB = [np.asarray(a, dtype=np.float32).astype(float) for a in probe_poses(400, 91 + k, dist)]
+        got = run_onnx(session, p, R, sA, sB)
+        point, normal = support_paths["compiled"].predict(p, R, size_A=sA, size_B=sB)
+        assert np.abs(got["point_A"] - point).max() <= 1e-6
+        angle = np.degrees(np.arctan2(np.linalg.norm(np.cross(got["normal_A"].astype(float), normal), axis=1),
+                                      np.sum(got["normal_A"] * normal, axis=1)))
+        assert angle.max() <= 1e-5
