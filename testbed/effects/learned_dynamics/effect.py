@@ -3,7 +3,9 @@
 Drake's own contact between containers is filtered off; contact with the quay stays Drake's.
 One system reads the bodies' poses and velocities, asks the predictor once per step for every
 nearby container pair (one batched call) and applies the wrenches as
-ExternallyAppliedSpatialForce (explicit: step n's force from step n's state).
+ExternallyAppliedSpatialForce: the normal force linearly implicit (backward Euler at the next
+step's penetration, the touching pairs solved together by a few projected Gauss-Seidel sweeps
+warm-started from the last step), friction explicit (step n's force from step n's state).
 
 Nearby pairs, per step: a sort-and-sweep broad phase on the containers' world boxes
 (kernels.broad_phase, about N log N plus the boxes sharing the sweep axis's interval), then the
@@ -21,7 +23,7 @@ Assumptions: flat faces (depth linear across the overlap); the overlap is the bo
 rectangle of B's face on A's face (+15 % force at 0.2 rad of yaw); edge-on-edge contact is
 treated as face contact; the containers run at the law's modulus (KAPPA_MODULUS, 1e8 Pa)
 unless the scene sets effects.contact.hydroelastic_modulus; the build refuses a pair whose
-explicit step would be unstable (Jury criterion, ScenarioError naming the pair); the tilt
+explicit part, the tilt stiffness, would be unstable (Jury criterion, ScenarioError naming the pair); the tilt
 mode assumes the predictor moves its point with tilt as Drake's centre of pressure does.
 
 README.md beside this file derives the law, its fit, the stability check, the records
@@ -69,6 +71,7 @@ class LearnedDynamicsConfig:
     stiction: float = 0.5  # [-] cap of h c / m_red of the viscous friction (stable below 1)
     torsional_friction: bool = True
     grid: int = 4  # quadrature points per side of the face overlap
+    normal_sweeps: int = 4  # projected Gauss-Seidel sweeps of the linearly implicit normal force per step
     shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
     truth_every_steps: int = 20  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
 
@@ -115,10 +118,12 @@ class LearnedDynamics(LeafSystem):
         truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
         self.records = ClosedLoopRecords(self._rows, truth)  # the closed_loop table (with contact_log)
         self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
-        # the stick's anchors of the pairs in contact: (keys (s,) int64 = ia * m + ib, ascending;
-        # rows (s, 7): material points in A and B [m] (6) and stuck flag (1)); absent = not stuck
-        self._anchor_state = self.DeclareAbstractState(AbstractValue.Make(_no_anchors()))
-        self._next_anchors = _no_anchors()
+        # the held rows of the pairs in contact: (keys (s,) int64 = ia * m + ib, ascending;
+        # rows (s, kernels.ROW): the stick's material points in A and B [m] (6), stuck flag (1),
+        # last normal force [N] (1); absent = not stuck, no force), and each body's history
+        # (m, kernels.BODY): velocities and the normal wrench of the last step (NaN: none yet)
+        self._anchor_state = self.DeclareAbstractState(AbstractValue.Make(self._no_history()))
+        self._next_anchors = self._no_history()
         # an unrestricted update, like the plant's step (sampled ports): both read the same
         # pre-step state, so the anchors come from the wrenches the plant just evaluated
         self.DeclarePeriodicUnrestrictedUpdateEvent(self._h, 0.0, self._update_anchors)
@@ -135,11 +140,15 @@ class LearnedDynamics(LeafSystem):
         # compile or load the numba kernels now, not inside the first timed step
         x0 = plant.GetPositionsAndVelocities(plant.CreateDefaultContext())
         self.wrenches(*self._K.bodies_from_state(x0, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free))
-        self._last = None
+        self._last, self._next_anchors = None, self._no_history()
         self.reset_costs()
         self._recording = "contact_log" in assembly.effects
         if self._recording:
             self.DeclarePeriodicPublishEvent(self._h, 0.0, self._record)
+
+    def _no_history(self) -> tuple:
+        """The held state before the first step: no pair held, every body's history NaN."""
+        return _NO_KEYS, _NO_ROWS, np.full((self._n, self._K.BODY), np.nan)
 
     def reset_costs(self) -> None:
         """Zeroes the cost counters (see costs())."""
@@ -196,17 +205,17 @@ class LearnedDynamics(LeafSystem):
     def wrenches(self, p, R, w, v, anchors=None) -> np.ndarray:
         """(m, 6) [N m, N] torque about each body origin and force, in W, on each container,
         from body-origin positions p (m, 3) [m], rotations R_WB (m, 3, 3) and velocities
-        w, v (m, 3) [rad/s, m/s] in W and the stick anchors (keys, rows) of the pairs in contact
-        (see _anchor_state; None = none). One predictor call for all candidate pairs (broad
-        phase, then near_pairs). Leaves the next anchors in _next_anchors."""
+        w, v (m, 3) [rad/s, m/s] in W and the held state (keys, rows, history) of the pairs in
+        contact and the bodies (see _anchor_state; None = none). One predictor call for all
+        candidate pairs (broad phase, then near_pairs). Leaves the next held state in _next_anchors."""
         cand_a, cand_b = self._K.broad_phase(p, R, self._half, self._free, NEAR)
         keep, p_AB, R_AB = self._K.near_pairs(p, R, cand_a, cand_b, self._half, self._radius, self._free, NEAR)
         self._last = {"pairs": np.zeros((0, 2), np.int64)}
-        self._next_anchors = _no_anchors()
         if not len(keep):
+            self._next_anchors = (_NO_KEYS, _NO_ROWS, np.hstack([v, w, np.zeros((len(p), 6))]))
             return np.zeros((len(p), 6))
         ia, ib = cand_a[keep], cand_b[keep]
-        keys, rows = _no_anchors() if anchors is None else anchors
+        keys, rows, history = self._no_history() if anchors is None else anchors
         kappa, held = self._K.gather_pairs(ia, ib, self._n, keys, rows, self._type, self._kappa_tt)
         size_A, size_B = self._size[ia], self._size[ib]
         start = time.perf_counter()
@@ -215,12 +224,14 @@ class LearnedDynamics(LeafSystem):
         self._cost[4] += 1
         self._cost[5] += len(keep)
         c = self._cfg
-        out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next = self._K.pair_wrenches(
+        out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next, history_next = self._K.pair_wrenches(
             p, R, w, v, self._mass, self._I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
             np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self._mu,
             c.slip_speed, c.stiction, self._h, c.torsional_friction, c.grid,
-            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping)
-        self._next_anchors = self._K.pack_anchors(ia, ib, self._n, anchors_next, stuck_next)  # keys ascend as broad_phase's
+            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping,
+            np.ascontiguousarray(held[:, 7]), history, c.normal_sweeps)
+        # keys ascend as broad_phase's
+        self._next_anchors = (*self._K.pack_anchors(ia, ib, self._n, anchors_next, stuck_next, fn), history_next)
         self._last = (ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R)  # last() builds the dict on demand
         return out
 
@@ -241,12 +252,7 @@ class LearnedDynamics(LeafSystem):
         self._cost[2] += time.perf_counter() - start
 
 
-def _no_anchors() -> tuple:
-    """The anchors of no pair: (keys (0,) int64, rows (0, 7))."""
-    return _NO_KEYS, _NO_ROWS
-
-
-_NO_KEYS, _NO_ROWS = np.zeros(0, np.int64), np.zeros((0, 7))
+_NO_KEYS, _NO_ROWS = np.zeros(0, np.int64), np.zeros((0, 8))  # no pair held (rows: kernels.ROW = 8 columns)
 
 
 @register
@@ -258,7 +264,7 @@ class LearnedDynamicsEffect(Effect):
     measured_alone = False  # it replaces Drake's container contact (the closed-loop cases time it)
     order = 22  # before crane (25), which asks it whether its container is seated
     requires = ("contact",)
-    STABLE_BELOW = 4.0  # (h w)^2 + 2 h c / m of the explicit symplectic Euler step
+    STABLE_BELOW = 4.0  # (h w)^2 of the explicit part (the tilt stiffness) in the symplectic Euler step
 
     def check(self, effects) -> None:
         super().check(effects)
@@ -277,6 +283,8 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("pressure_stiffness", f"expected a positive stiffness [Pa/m], got {c.pressure_stiffness}")
         if not (isinstance(c.truth_every_steps, int) and c.truth_every_steps >= 1):
             raise self.fail("truth_every_steps", f"expected a whole number of steps >= 1, got {c.truth_every_steps}")
+        if not (isinstance(c.normal_sweeps, int) and c.normal_sweeps >= 1):
+            raise self.fail("normal_sweeps", f"expected a whole number >= 1, got {c.normal_sweeps}")
         if not (isinstance(c.grid, int) and c.grid >= 1):
             raise self.fail("grid", f"expected a whole number >= 1, got {c.grid}")
         if c.mu is not None and not c.mu >= 0:
@@ -321,15 +329,14 @@ class LearnedDynamicsEffect(Effect):
                                        for a in types]).reshape(len(types), len(types))  # [Pa/m]
         self.kappa = np.array([self.kappa_by_type[self.type_index[i], self.type_index[j]] for i, j in self.pairs])
         self.stability = stability_numbers(self.scenario, self.pairs, self.kappa, c.dissipation)
-        for row in self.stability:
-            worst = max(("normal", "tilt"), key=lambda mode: row[mode])
-            if row[worst] >= self.STABLE_BELOW:
+        for row in self.stability:  # the normal force is linearly implicit: the tilt stiffness stays explicit
+            if row["explicit"] >= self.STABLE_BELOW:
                 h = self.scenario.plant.time_step
                 raise self.fail(
                     "", f"pair '{row['pair'][0]}'-'{row['pair'][1]}': the explicit contact force is unstable at "
-                    f"plant.time_step = {h:g} s: {worst} mode (h w)^2 + 2 h c / m = {row[worst]:.2f} "
-                    f"(h w = {row['h_w_' + worst]:.2f}), expected below {self.STABLE_BELOW:g}; "
-                    f"use a time step below about {h * math.sqrt(self.STABLE_BELOW / row[worst]):.2g} s")
+                    f"plant.time_step = {h:g} s: tilt mode (h w)^2 = {row['explicit']:.2f} "
+                    f"(h w = {row['h_w_tilt']:.2f}), expected below {self.STABLE_BELOW:g}; "
+                    f"use a time step below about {h * math.sqrt(self.STABLE_BELOW / row['explicit']):.2g} s")
 
     def add_systems(self, assembly) -> list:
         if not hasattr(self, "predictor"):
@@ -352,7 +359,7 @@ class LearnedDynamicsEffect(Effect):
 
     def summarize(self, tables: dict) -> dict:
         out = {"learned_dynamics_predictor": self.config.predictor,
-               "learned_dynamics_stability_max": max((max(r["normal"], r["tilt"]) for r in self.stability), default=0.0)}
+               "learned_dynamics_stability_max": max((r["explicit"] for r in self.stability), default=0.0)}
         table = tables.get("closed_loop")
         if table is not None and "has_truth" in table:
             out.update(summarize_truth(table, self.config.truth_every_steps))

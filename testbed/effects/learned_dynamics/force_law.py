@@ -100,8 +100,11 @@ def _columns(specs) -> tuple[np.ndarray, list[set]]:
 
 
 def stability_numbers(scenario, pairs, kappa, dissipation: float) -> list[dict]:
-    """Per pair: the normal and tilt modes' (h w)^2 + 2 h c / m (stable below 4; see the
-    module docstring), with the figures they come from. A stacked pair's static load (one box in
+    """Per pair: the normal and tilt modes' (h w)^2 + 2 h c / m, what an explicit step of the
+    whole law would need below 4 (see the module docstring), with the figures they come from,
+    and `explicit`: (h w_tilt)^2, the part that stays explicit in the linearly implicit law
+    (the tilt stiffness, from the contact point moving with the tilt; the normal force and its
+    dissipation are implicit: README.md beside this file), which the effect checks below 4. A stacked pair's static load (one box in
     the other's column) is what its upper box carries (carried_masses: itself and its column);
     a pair side by side carries no column: a box leaning on its neighbour presses with about its
     own weight, so its load is the upper box's own mass."""
@@ -135,5 +138,5 @@ def stability_numbers(scenario, pairs, kappa, dissipation: float) -> list[dict]:
         tilt = (h * math.sqrt(2 * k_tilt * inv_I)) ** 2 + 2 * h * c * inv_m
         out.append({"pair": (a.name, b.name), "k_N_per_m": k, "h_w_normal": h * math.sqrt(2 * k * inv_m),
                     "normal": normal, "k_tilt_Nm_per_rad": k_tilt, "h_w_tilt": h * math.sqrt(2 * k_tilt * inv_I),
-                    "tilt": tilt, "damping": 2 * h * c * inv_m})
+                    "tilt": tilt, "damping": 2 * h * c * inv_m, "explicit": (h * math.sqrt(2 * k_tilt * inv_I)) ** 2})
     return out

@@ -13,8 +13,10 @@ Per step (h = plant.time_step, semi-implicit Euler, MuJoCo's default integrator)
      each body origin C moved to the COM and written to xfrc_applied (plus wind and the
      crane's ropes);
   5. mj_step2: MuJoCo's constraint solve (quay contact) and integration.
-The force is explicit (step n's state), as in the Drake-hosted loop, so the same stability
-check applies (LearnedDynamicsEffect refuses a scene whose explicit step is unstable).
+The normal force is linearly implicit and friction explicit, as in the Drake-hosted loop (the
+same kernel and held state: anchors, last normal forces, each body's last-step history), so the
+same stability check applies (LearnedDynamicsEffect refuses a scene whose explicit part, the
+tilt stiffness, is unstable).
 
 What MuJoCo's own contact still does, and why: the quay. Container-quay contact is Drake's
 hydroelastic in the Drake-hosted loop (the learned law covers box pairs only: the predictor
@@ -191,9 +193,14 @@ class LearnedContact:
         friction = s.effects.friction
         self.mu = 0.0 if friction is None else float(
             self.cfg.mu if self.cfg.mu is not None else (friction.mu if friction.mu is not None else MU_SDF))
-        self.anchors = (np.zeros(0, np.int64), np.zeros((0, 7)))
+        self.anchors = self.no_history()
         self.last = None  # (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB) of the latest step's candidates
         self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
+
+    def no_history(self) -> tuple:
+        """The held state before the first step: (keys (0,), rows (0, kernels.ROW), history
+        (m, kernels.BODY) NaN): no pair held, no body's last step (kernels.pair_wrenches)."""
+        return np.zeros(0, np.int64), np.zeros((0, self.K.ROW)), np.full((self.n, self.K.BODY), np.nan)
 
     def state(self, data) -> tuple:
         """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
@@ -217,22 +224,24 @@ class LearnedContact:
         self.costs[3] += 1
         if not len(keep):
             data.xfrc_applied[:] = 0.0
-            self.anchors, self.last = (np.zeros(0, np.int64), np.zeros((0, 7))), None
+            self.anchors = (np.zeros(0, np.int64), np.zeros((0, K.ROW)), np.hstack([v, w, np.zeros((self.n, 6))]))
+            self.last = None
             self.costs[0] += time.perf_counter() - t0
             return
         ia, ib = cand_a[keep], cand_b[keep]
-        keys, rows = self.anchors
+        keys, rows, history = self.anchors
         kappa, held = K.gather_pairs(ia, ib, self.n, keys, rows, self.type_index, self.kappa_tt)
         size_A, size_B = self.size[ia], self.size[ib]
         t1 = time.perf_counter()
         point_A, normal_A = self.predictor.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
         t2 = time.perf_counter()
-        out, fn, f_W, p_W, n_W, _, anchors_next, stuck_next = K.pair_wrenches(
+        out, fn, f_W, p_W, n_W, _, anchors_next, stuck_next, history_next = K.pair_wrenches(
             p, R, w, v, self.mass, self.I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
             np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self.mu,
             c.slip_speed, c.stiction, self.h, c.torsional_friction, c.grid,
-            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping)
-        self.anchors = K.pack_anchors(ia, ib, self.n, anchors_next, stuck_next)
+            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping,
+            np.ascontiguousarray(held[:, 7]), history, c.normal_sweeps)
+        self.anchors = (*K.pack_anchors(ia, ib, self.n, anchors_next, stuck_next, fn), history_next)
         self.glue.write_wrenches(data.xfrc_applied, out, self.body, self.free, data.xpos, data.xipos)
         self.last = (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB)
         t3 = time.perf_counter()
@@ -297,7 +306,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     mj.mj_step1(model, data)
     law.apply(data)
     law.costs[:] = 0.0
-    law.anchors, law.last = (np.zeros(0, np.int64), np.zeros((0, 7))), None
+    law.anchors, law.last = law.no_history(), None
     if model.nkey:
         mj.mj_resetDataKeyframe(model, data, 0)
     else:
@@ -360,7 +369,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
                                  "wind_crane": effects_s * per_step, "total": wall * per_step},
                  "predict_calls": int(law.costs[4]), "predict_pairs": int(law.costs[5])},
         "max_penetration_m": float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0,
-        "stability_max": max((max(r["normal"], r["tilt"]) for r in prepared.effect.stability), default=0.0),
+        "stability_max": max((r["explicit"] for r in prepared.effect.stability), default=0.0),
         "crane_release_time_s": None if crane is None else crane.release_time,
     }
     run = MujocoRun(tables={"steps": steps, "contacts": contacts}, summary=summary, body_names=tr.body_names,
