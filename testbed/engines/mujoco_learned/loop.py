@@ -49,10 +49,13 @@ import numpy as np
 from testbed import variants
 from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco.crane import CraneRopes
-from testbed.engines.mujoco.model import build_model, mujoco_module
-from testbed.engines.mujoco.run import _ContactReducer, steps_table
+from testbed.engines.mujoco.model import build_model, check_supported, mujoco_module
+from testbed.engines.mujoco.run import MujocoRun, _ContactReducer, steps_table, trajectory_of
+from testbed.engines.mujoco_learned import glue
 from testbed.errors import ScenarioError
 from testbed.geometry.boxes import box_box_signed_distance
+from testbed.scenario import validate_scenario
+from testbed.simulation import Trajectory
 
 NEAR = 0.05  # [m] candidate margin, the Drake-hosted loop's (learned_dynamics.effect.NEAR)
 MAX_SPEED = 100.0  # [m/s, rad/s] a state past this has blown up (no container in a yard moves so fast)
@@ -67,7 +70,6 @@ class UnstableStepError(UnsupportedSceneError):
 
 def refused_run(scenario, why: str):
     """A Trajectory of the initial state alone whose error is `why` (a run that cannot start)."""
-    from testbed.simulation import Trajectory
 
     free = [c for c in scenario.containers if not c.fixed]
     p = np.array([[c.pose().translation() for c in free]]).reshape(1, -1, 3)
@@ -93,8 +95,6 @@ def prepare(scenario, predictor: str | None, source: object = "<scenario>") -> P
     """The scene with the learned loop (predictor None: the scene's, else "improved") at the
     law's modulus, checked. Raises UnsupportedSceneError (one line: the field and why) for a
     scene the loop refuses (generic boxes, an explicit step that is unstable, a bad predictor)."""
-    from testbed.engines.mujoco.model import check_supported
-    from testbed.scenario import validate_scenario
 
     learned = variants.derive(scenario, variants.learned_loop(predictor), variants.modulus(None))
     try:
@@ -166,7 +166,6 @@ class LearnedContact:
 
     def __init__(self, prepared: Prepared, model):
         import testbed.effects.learned_dynamics.kernels as kernels  # numba: loaded when a scene runs
-        from testbed.engines.mujoco_learned import glue
 
         self.K, self.glue = kernels, glue
         s, effect = prepared.learned, prepared.effect
@@ -274,7 +273,6 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     and `predictor` deciding container contact (see the module docstring); records every
     `record_every` steps. Raises UnsupportedSceneError before anything runs; a run whose
     state turns non-finite stops there (trajectory.error set)."""
-    from testbed.engines.mujoco.run import MujocoRun, trajectory_of
 
     mj = mujoco_module()
     prepared = prepare(scenario, predictor, source)
