@@ -1,6 +1,6 @@
 """Accuracy gates of the learned predictor, evaluated on held-out poses made on the spot.
 
-Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8; training uses + 1 and + 2):
+Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8, + 9; training uses + 1 and + 2):
 - "stacking", "general": the training distributions, re-drawn from unused seeds;
 - "outside": poses OUTSIDE the training sampler's distribution: stacking landings
   drawn with roll and pitch up to 10 deg (training: 5 deg) and penetration up to 5 cm
@@ -12,6 +12,16 @@ Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8; training uses + 1 an
   0.05 deg, yaw within 2 deg, offsets up to 0.4 m). `resting_set(seed, n)` draws it
   alone (the bench's resting set). The shipped predictor's resting expert answers
   every pose of it and meets issue 20's targets there (THRESHOLDS).
+- "resting_wider": where landings and overhangs leave a box resting (issue 30; sampling's
+  "resting_wider": yaw within 6 deg, B's centre up to 3 m off A's along A's x and 0.6 m along
+  y, all 20 ft / 40 ft pairs, overlap 5 um to 0.5 mm, half of the poses exactly level, the
+  others with roll and pitch within 0.05 deg). `resting_wider_set(seed, n)` draws it alone.
+  Judged by issue 30's targets: point p95 <= 3 cm and normal p95 <= 0.1 deg, pinned known
+  limits while the shipped predictor misses them (the point median target is not gated on the
+  whole set: half of its poses are exactly level and answered to micrometres, so its median
+  falls between the level and the tilted halves by the luck of the draw: 0.014 mm on seed 0,
+  2.9 mm on seed 98765); its exactly level poses ("resting_wider_level", the same labels) are
+  held to issue 30's 0.01 mm at the p95 (the prior's slab answer, exact by construction).
 
 Two kinds of gate, and why: absolute bounds (the issue-3 thresholds) say the answer is
 good enough for a crane simulator; "vs prior" bounds say the network earns its place.
@@ -64,7 +74,12 @@ THRESHOLDS = {
     # issue 20's normal target (p95 <= 0.5 deg; measured 0.013-0.017 deg) cannot be a plain gate: the prior
     # (0.041-0.044 deg) and point contact pass it. Against the prior it can: 0.5 x the prior is far inside it.
     "resting normal error p95 vs prior": (0.5, "x"),  # 0.31-0.38 (the main network alone 45-56)
+    # wider resting poses (issue 30), the exactly level ones: the answer is the prior's slab answer by
+    # construction (issue 30's target <= 0.01 mm at the median and p95); the prior passes, point contact fails
+    "resting_wider_level point error p95": (1e-5, "m"),  # 0.0041-0.0048 mm (seeds 0, 98765; prior the same)
 }
+# [m], [deg] measured on seeds 0 / 98765: 7.48 / 8.13 cm, 0.97 / 0.72 deg (the prior 12.7 / 14.3 cm, 0.03 deg)
+RESTING_WIDER_P95, RESTING_WIDER_NORMAL_P95 = 0.078, 0.85
 # Targets out of reach today, pinned like the stress suite's expected failures: the gate
 # holds while the figure stays in the band (factors of the pinned figure), so a network
 # that gets worse fails it, and one that gets much better says the pin is stale.
@@ -81,23 +96,49 @@ KNOWN_LIMITS = {
         "expert leaves as it was (its gate is shut on almost every stacking pose); main networks retrained with "
         "resting poses reached 1.23-1.58 cm but lost the outside normal tail or the overhang scenes' closed loop "
         "(learned_contact/RESEARCH_LOG.md)"),
+    # issue 30's wider resting targets (seeds 0 and 98765 measured, 400 poses): poses the resting expert's gate
+    # does not reach (B's centre beyond 0.4-0.5 m, yaw beyond 2-3 deg) get the main network's correction
+    "resting_wider point error p95": (
+        0.03, RESTING_WIDER_P95, (0.75, 1.3),
+        "the shipped expert's gate (issue 20's layout: offsets within 0.4-0.5 m, yaw within 2-3 deg) shuts on most "
+        "wider poses, where the main network (trained on depths of 0-3 cm) answers tilted micrometre overlaps; the "
+        "level half is exact (the prior's slab answer)"),
+    "resting_wider normal error p95": (
+        0.1, RESTING_WIDER_NORMAL_P95, (0.6, 1.5),
+        "as the point p95: the main network's normal on tilted micrometre overlaps (the prior scores 0.02-0.04 deg)"),
 }
 LIMIT_UNITS = {"vs prior": "x", "normal": "deg"}  # unit of a KNOWN_LIMITS figure by its name, else "m"
 # Reported, not gated: where the geometric estimate is already exact (the normal of a
 # vertex-face contact), the network can only lose; these figures show by how much.
 REPORTED = ("general normal error median", "general normal error p95", "stacking normal error median",
-            "resting point error p99", "resting normal error median", "resting normal error p95")
+            "resting point error p99", "resting normal error median", "resting normal error p95",
+            "resting_wider point error median", "resting_wider point error p99", "resting_wider normal error median",
+            "resting_wider_level point error median")
 
 
 def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False) -> dict:
-    """{"stacking", "general", "outside", "resting": Dataset} of held-out poses (not cached)."""
+    """{"stacking", "general", "outside", "resting", "resting_wider", "resting_wider_level": Dataset} of
+    held-out poses (not cached; "resting_wider_level": the exactly level poses of "resting_wider")."""
     data = {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
             for d, k in (("stacking", 5), ("general", 6))}
     wide = make_dataset("stacking", n, 10 * seed + 7, workers=workers, progress=progress, use_cache=False,
                         **OUTSIDE_RANGES)
     data["outside"] = wide.subset(outside_training(wide))
     data["resting"] = resting_set(seed, n, workers=workers, progress=progress)
+    data["resting_wider"] = resting_wider_set(seed, n, workers=workers, progress=progress)
+    data["resting_wider_level"] = data["resting_wider"].subset(exactly_level(data["resting_wider"]))
     return data
+
+
+def exactly_level(ds) -> np.ndarray:
+    """(n,) bool: poses of a Dataset whose B's z axis is A's z to the last bit (roll = pitch = 0)."""
+    return (ds.R_AB[:, 0, 2] == 0.0) & (ds.R_AB[:, 1, 2] == 0.0)
+
+
+def resting_wider_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False):
+    """The held-out "resting_wider" Dataset (sampling seed 10 * seed + 9, not cached): n
+    proposals of sampling's "resting_wider" distribution, labelled by Drake."""
+    return make_dataset("resting_wider", n, 10 * seed + 9, workers=workers, progress=progress, use_cache=False)
 
 
 def resting_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False):

@@ -7,7 +7,10 @@ seeds the accuracy gates use, so the figures are the gates' own):
   ranges);
 - "resting": where shipped stacks sit at 1e9 Pa (learned_contact.data.sampling's "resting"
   distribution: overlap log-uniform from 5 um to 0.5 mm, roll and pitch within 0.05 deg,
-  yaw within 2 deg, offsets up to 0.4 m), the gates' own resting set.
+  yaw within 2 deg, offsets up to 0.4 m), the gates' own resting set;
+- "resting_wider": where landings and overhangs leave a box resting (issue 30: yaw within
+  6 deg, offsets up to 3 m along A's x and 0.6 m along y, half of the poses exactly level),
+  the gates' own wider resting set, and "resting_wider_level", its exactly level poses.
 
 Per predictor and set: point error [m] and normal error [deg], median / p95 / p99, and
 the ratio of each to the geometric prior's on the same poses (learned_contact.gates.
@@ -23,12 +26,12 @@ from learned_contact.evaluation.gates import GeometricPrior, gate_figures, held_
 from learned_contact.evaluation.metrics import point_normal_errors
 from learned_contact.interface import SIZE_TOLERANCE
 
-SETS = ("stacking", "general", "outside", "resting")
+SETS = ("stacking", "general", "outside", "resting", "resting_wider", "resting_wider_level")
 STATS = (("median", 50), ("p95", 95), ("p99", 99))
 
 
 def pose_sets(seed: int, n: int, *, workers: int = 2) -> dict:
-    """{set name: learned_contact Dataset}: the gates' held-out sets (resting included)."""
+    """{set name: learned_contact Dataset}: the gates' held-out sets (SETS: resting and resting_wider included)."""
     return held_out(seed, n, workers=workers)
 
 

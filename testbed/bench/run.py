@@ -31,7 +31,7 @@ from testbed.scenario import load_scenario
 SCHEMA = "testbed.bench/1"
 DEFAULT_PREDICTORS = SHIPPED_NAMES
 # Poses per held-out set: the gates' 400 in both modes (their thresholds are set for it; labelling
-# the four sets costs ~6 s on 2 cores), so a quick bench judges accuracy exactly as a full one.
+# the five sets costs ~8 s on 2 cores), so a quick bench judges accuracy exactly as a full one.
 N_POSES = 400
 
 

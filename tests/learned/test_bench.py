@@ -40,7 +40,8 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
     for spec in specs:
         e = data["predictors"][spec]
         assert set(e) >= {"accuracy", "cost", "in_scene", "closed_loop", "verdict", "good_enough"}
-        assert set(e["accuracy"]["sets"]) == {"stacking", "general", "outside", "resting"}
+        assert set(e["accuracy"]["sets"]) == {"stacking", "general", "outside", "resting", "resting_wider",
+                                                 "resting_wider_level"}
         assert e["accuracy"]["gates_total"] == len(e["accuracy"]["gates"]) > 0
         assert set(e["closed_loop"]) == {"two_stack", "crane_misaligned", "overhang_tip"}
         assert e["cost"]["batched_s_per_pair"] > 0 and e["cost"]["first_call_s"] > 0
@@ -64,7 +65,7 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
     prior = {g["name"]: g["passed"] for g in geo["accuracy"]["gates"]}
     for name in ("resting point error median", "resting point error p95"):
         assert mine[name] and not prior[name]
-    assert improved["known_limits"] and not any(k.startswith("resting") for k in improved["known_limits"])
+    assert improved["known_limits"] and not any(k.startswith("resting ") for k in improved["known_limits"])
     assert improved["verdict"].startswith(f"GOOD ENOUGH WITHIN {len(improved['known_limits'])} KNOWN LIMITS")
     assert data["leaderboard"].index("improved") < data["leaderboard"].index(centre_line)
     # in the loop, the scene where the contact point decides the outcome tells them apart: the
@@ -88,7 +89,7 @@ def test_the_headline_speaks_of_the_models_the_user_named(quick_bench, centre_li
     good, lines = headline(data)
     assert not good and data["predictors"]["improved"]["good_enough"]
     assert lines[0].startswith("centre_line: NOT GOOD ENOUGH") and lines[-1].startswith("reference improved: GOOD ENOUGH")
-    assert "gates 15 of 15 passed" in data["predictors"]["improved"]["verdict"]
+    assert "gates 18 of 18 passed" in data["predictors"]["improved"]["verdict"]
 
 
 def test_a_model_is_judged_on_the_container_sizes_it_declares():

@@ -100,3 +100,12 @@ def test_paper_baseline_trains_to_stated_mae(data):
     constant = paper_table(np.broadcast_to(paper_targets(train).mean(0), y_true.shape), y_true)["mean"]["MAE"]
     assert mae <= PAPER_BASELINE_MAE, f"paper baseline MAE {mae:.4f} rad (constant predictor {constant:.4f})"
     assert mae < 0.8 * constant
+
+
+def test_the_wider_resting_sets_hold_overhangs_and_their_exactly_level_poses(data):
+    """"resting_wider" (issue 30) reaches B's centre metres along A's x and yaws beyond the resting
+    expert's 2-3 deg; "resting_wider_level" is exactly its level poses (about half)."""
+    wider, level = data["resting_wider"], data["resting_wider_level"]
+    assert np.abs(wider.p_AB[:, 0]).max() > 2.5 and np.degrees(np.abs(np.arcsin(wider.R_AB[:, 1, 0]))).max() > 5.0
+    assert 0.35 < len(level) / len(wider) < 0.65
+    assert np.all(level.R_AB[:, 0, 2] == 0.0) and np.all(level.R_AB[:, 1, 2] == 0.0)
