@@ -158,9 +158,9 @@ def format_figures(f: dict, out=None) -> str:
     if f["hydroelastic_modulus_Pa"] == HYDROELASTIC_MODULUS:
         why = "the shipped containers', in every run of this comparison"
     else:
-        why = (f"in every run of this comparison, not the shipped {HYDROELASTIC_MODULUS:.0e} Pa: the learned loop's "
-               "explicit force is unstable that stiff at this time step, so the truth is made as soft as the law "
-               "it is compared with (docs/scenes.md)")
+        why = (f"in every run of this comparison, not the shipped {HYDROELASTIC_MODULUS:.0e} Pa: the learned law's "
+               "default, at which it was fitted and judged; the truth is made as soft as the law it is compared with "
+               "(docs/commands.md)")
     lines.append(modulus_line(f["hydroelastic_modulus_Pa"], why))
     if "three_way" in f:
         from testbed.engines.three_way import format_table
