@@ -84,6 +84,26 @@ def _plot(data: dict) -> Figure:
     return Figure("bench_accuracy_cost.png", "accuracy against cost, and point error per pose set", png(fig))
 
 
+def _share(total, alone) -> str:
+    """The wrapper's share of a call: 1 - model alone / through the bench's wrapper."""
+    if total is None or alone is None or not total > 0:
+        return "-"
+    return f"{max(0.0, 1.0 - alone / total):.0%}"
+
+
+def _loop(e: dict) -> tuple[str, str, str]:
+    """Per step in the closed loop, the median over the scenes benched [us]: the predictor's
+    call, the rest of the learned system (state, broad phase, force law), the host's step."""
+    parts = {"predictor": [], "learned_system": [], "drake_step": []}
+    for f in e["closed_loop"].values():
+        cost = f.get("cost_learned") or {}
+        for part in parts:
+            value = cost.get(f"{part}_us_per_step")
+            if value is not None and math.isfinite(value):
+                parts[part].append(value)
+    return tuple(_n(sorted(v)[len(v) // 2], fmt=".0f") if v else "-" for v in parts.values())
+
+
 def _cost(data: dict) -> Section:
     ref = data["references"]
     rows = [(data["predictors"][s]["label"], _n(c["first_call_s"], fmt=".3g"), _n(c["single_s_per_pair"], 1e6),
@@ -91,6 +111,12 @@ def _cost(data: dict) -> Section:
              _n(c["batched_vs_drake_point"], fmt=".2g"), _n(c["single_vs_improved_compiled"], fmt=".2g"),
              _n(c["batched_vs_improved_compiled"], fmt=".2g"))
             for s in data["leaderboard"] for c in [data["predictors"][s]["cost"]]]
+    integrator = [(data["predictors"][s]["label"], _n(c.get("model_single_s_per_pair"), 1e6),
+                   _n(c.get("model_batched_s_per_pair"), 1e6),
+                   f"{_share(c['single_s_per_pair'], c.get('model_single_s_per_pair'))} / "
+                   f"{_share(c['batched_s_per_pair'], c.get('model_batched_s_per_pair'))}",
+                   *_loop(data["predictors"][s]))
+                  for s in data["leaderboard"] for c in [data["predictors"][s]["cost"]]]
     return Section("Cost per query", [
         Text(f"One pair per call ({ref['single_pairs']} pairs) and batched ({ref['batch']} pairs per call), best of "
              f"{ref['repeats']} rounds; first call = load + one answer. References in the same run: Drake's "
@@ -98,7 +124,13 @@ def _cost(data: dict) -> Section:
              f"us/pair; the shipped improved predictor compiled, {ref['improved_compiled_single_s_per_pair'] * 1e6:.3g} "
              f"us/pair single, {ref['improved_compiled_batched_s_per_pair'] * 1e6:.3g} us/pair batched."),
         table(["predictor", "first call [s]", "us/pair single", "us/pair batched", "single / Drake point",
-               "batched / Drake point", "single / improved compiled", "batched / improved compiled"], rows)], order=3)
+               "batched / Drake point", "single / improved compiled", "batched / improved compiled"], rows),
+        Text("What an integrator pays: the model alone (for a model the testbed did not ship: its own answer "
+             "function, e.g. onnxruntime's session.run, without the bench's checks, depth and clipping), the "
+             "wrapper's share of each call, and per step in the closed loop (median over the scenes benched): the "
+             "predictor's call, the rest of the learned system and the host's (Drake's) step."),
+        table(["predictor", "model alone us/pair single", "model alone us/pair batched", "wrapper's share single / batched",
+               "in the loop: predictor us/step", "learned system us/step", "host step us/step"], integrator)], order=3)
 
 
 def _scenes(data: dict) -> Section:

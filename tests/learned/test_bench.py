@@ -73,6 +73,10 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
     assert improved["closed_loop"]["overhang_tip"]["passed"] and not geo["closed_loop"]["overhang_tip"]["passed"]
     # the files hold the same data; every predictor is in the leaderboard table
     assert set(data["provenance"]) == {"date", "commit", "machine", "python", "drake"}
+    # what an integrator pays: an external model alone (its own answer function) beside the wrapped call
+    assert line["cost"]["model_single_s_per_pair"] > 0 and line["cost"]["model_batched_s_per_pair"] > 0
+    assert "model_single_s_per_pair" not in improved["cost"]  # the shipped predictor has no wrapper
+    assert all(f["cost_learned"]["predictor_us_per_step"] > 0 for f in improved["closed_loop"].values())
     on_disk = json.loads((out / "bench.json").read_text())
     assert on_disk["leaderboard"] == data["leaderboard"]
     html = (out / "index.html").read_text()
