@@ -7,10 +7,10 @@ reported in a section of their own beside the shipped predictor's figures, not g
 from __future__ import annotations
 
 from learned_contact import sources
-from learned_contact.evaluation.gates import KNOWN_LIMITS, evaluate_gates
+from learned_contact.evaluation.gates import evaluate_gates
 from testbed.document import Section, Text, table
+from testbed.gates import Gate, KnownLimit
 from testbed.validation.cases import Case, CaseKind, register
-from testbed.validation.gates import KNOWN_LIMIT, Gate
 
 
 @register
@@ -34,8 +34,7 @@ class LearnedGatesCase(CaseKind):
     def gates(self, record: dict) -> list[Gate]:
         if record["result"].get("predictor") is not None:
             return []  # an added predictor: reported (sections), not gated
-        return [Gate(f"learned: {g['name']}", g["passed"], g["value"], g["threshold"], g.get("unit", ""),
-                     g.get("description", ""), bound=_bound(g["name"])) for g in record["result"].get("gates", [])]
+        return [_gate(g) for g in record["result"].get("gates", [])]
 
     def sections(self, records: list[dict]) -> list:
         shipped = [r for r in records if r["result"].get("predictor") is None]
@@ -60,9 +59,10 @@ class LearnedGatesCase(CaseKind):
             table(["gate", *[c[0] for c in columns], "threshold"], rows)], order=52)]
 
 
-def _bound(name: str):
-    """The target a pinned known limit of learned_contact.evaluation.gates does not reach (None: not one)."""
-    if not name.endswith(KNOWN_LIMIT):
-        return None
-    known = KNOWN_LIMITS.get(name[:-len(KNOWN_LIMIT)].strip())
-    return None if known is None else known[0]
+def _gate(g: dict) -> Gate:
+    """A gate of learned_contact.evaluation.gates (a metrics dict) as the validation's Gate, its
+    pinned known limit (when it is one) carried as the field."""
+    known = g.get("known_limit")
+    limit = KnownLimit(known["pinned"], tuple(known["band_factors"]), known["why"]) if known else None
+    return Gate(f"learned: {g['name']}", g["passed"], g["value"], g["threshold"], g.get("unit", ""),
+                g.get("description", ""), bound=g.get("bound"), known_limit=limit)
