@@ -301,7 +301,8 @@ def report_sections(summary, wall_s: float | None = None) -> list[Section]:
            f"crane landings {CRANE_PENETRATION_BOUND * 1e3:g} mm, resting scenes {RESTING_PENETRATION_BOUND * 1e3:g} mm); "
            f"toss error: held-out real cube tosses, mean position error in % of cube width (FAIL above "
            f"{TOSS_ERROR_BOUND * 100:g} %, the published Drake figure); learned loop: (h w_tilt)^2 of the closed "
-           f"loop's explicit part (its normal force is linearly implicit) at this modulus and step, worst shipped scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); "
+           f"loop's explicit part (its normal force is linearly implicit) at this modulus and step, worst shipped "
+           f"scene (FAIL at {LEARNED_LOOP_STABLE_BELOW:g} or above); "
            f"cost ratio against the cheapest setting "
            f"of this sweep failing no physics criterion (FAIL above {COST_FACTOR:g}x)."
            + (f" Sweep wall time {wall_s:.0f} s." if wall_s is not None else ""))
