@@ -24,6 +24,7 @@ from learned_contact.model.encodings import canonicalise, features, frame_blend,
 from learned_contact.model.expert import R_SLAB
 from learned_contact.model.mlp import NumpyMLP
 from learned_contact.predictors.improved import POINT_STEP, SHIPPED_DIR, ContactPredictor
+from learned_contact.predictors.loading import load_weights
 from learned_contact.predictors.paper import PaperPredictor, predict_paper
 from learned_contact.training.paper import PaperConfig, paper_targets, train_paper
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -386,8 +387,6 @@ def main(argv=None) -> None:
     if args.recipe != "shipped" and args.out is None:
         parser.error(f"--recipe {args.recipe} needs --out DIR (it would overwrite the shipped model)")
     if args.recipe == "support_expert":
-        from learned_contact.predictors.loading import load_weights
-
         t0 = time.perf_counter()
         base = load_weights("improved", compiled=False)
         predictor, info = refit_expert(base, TrainConfig(seed=args.seed, expert=SUPPORT_EXPERT), progress=not args.quiet)
