@@ -83,16 +83,19 @@ def test_sweeps_and_the_stability_matrix_list_only_what_drake_has():
 
 
 def test_the_validation_summary_names_the_installed_drake_and_mujoco(tmp_path):
-    """`testbed validate`'s summary.md (what CI logs show) and index.html end with the
-    environment line naming the Drake and MuJoCo versions the suite ran on."""
+    """`testbed validate`'s summary.md (what CI logs show) and index.html name, on their first
+    screen, the Drake and MuJoCo versions the suite ran on and the commit."""
     import json
 
     assert cli.main(["validate", "--suite", "smoke", "--out", str(tmp_path), "--quiet", "--workers", "1"]) == 0
     (run,) = [p for p in tmp_path.iterdir() if p.is_dir()]
     env = json.loads((run / "metrics.json").read_text())["environment"]
     assert env["drake"] == drake_version()
-    line = f"Drake {drake_version()}, MuJoCo {env['mujoco']}, Python "
-    assert line in (run / "summary.md").read_text() and line in (run / "index.html").read_text()
+    line = f"Drake {drake_version()}, mujoco {env['engines']['mujoco']}, "
+    summary = (run / "summary.md").read_text()
+    assert line in summary and line in (run / "index.html").read_text()
+    assert summary.index(line) < summary.index("## ")  # before the first section: the first screen
+    assert f"commit {env['commit']}" in summary
 
 
 def test_the_defaults_sweep_refuses_tamsi_where_drake_lacks_it(tmp_path, capsys):
