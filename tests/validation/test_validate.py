@@ -212,9 +212,11 @@ def test_first_screen_counts_limits_and_candidates(smoke_run):
     cases = on_disk["cases"].values()
     expected = {"Drake point contact"}  # the closed loop times it; the point scenes shadow hydroelastic
     expected |= {n for c in cases if c["kind"] == "closed_loop" for n in c["result"]["predictors"]}
-    expected |= {f"MuJoCo ({p} parameters)" for c in cases if c["kind"] == "engine" and c["result"].get("available")
-                 for p in c["result"]["mujoco"]}
-    assert {"improved", "paper", "MuJoCo (matched parameters)"} <= expected
+    from testbed.engines import alternatives
+
+    expected |= {f"{e.label} ({p})" for c in cases if c["kind"] == "engine" and c["result"].get("available")
+                 for e in alternatives() for p in c["result"].get(e.name, {})}
+    assert {"improved", "paper", "MuJoCo (matched)"} <= expected
     block = summary.split("## Summary: each candidate against Drake\n\n")[1].split("\n\n")[0]
     rows = [line.split(" | ")[0].lstrip("| ") for line in block.splitlines()[2:]]
     assert len(rows) == len(expected), rows
