@@ -26,6 +26,7 @@ from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
 from learned_contact.model.encodings import features, frame_blend, reflect
 from learned_contact.model.expert import DOMAIN_FIELDS, LAYOUTS, layout, weights
 from learned_contact.model.mlp import NumpyMLP
+from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT, face_on_face, hand_over
 from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, SUPPORT_FORMAT_VERSION, MLPPredictor
 from testbed.geometry.boxes import sat_normal
 
@@ -87,8 +88,27 @@ class ContactPredictor(MLPPredictor):
         return version, {**self.expert.to_arrays("expert/"), "expert/domain": self.expert_domain}
 
     def _predict_numpy(self, p, R, sA, sB, with_depth: bool):
-        h_A = 0.5 * sA
-        sat_n, depth, _ = sat_normal(p, R, h_A, 0.5 * sB)
+        h_A, h_B = 0.5 * sA, 0.5 * sB
+        sat_n, depth, _ = sat_normal(p, R, h_A, h_B)
+        in_domain = (depth >= DOMAIN_DEPTH[0]) & (depth <= DOMAIN_DEPTH[1])
+        q_point, q_normal, q_weight, tilt = face_on_face(p, R, h_A, h_B, sat_n)
+        faces_meet = in_domain & (q_weight > 0.0)
+        f_point = np.where(faces_meet, hand_over(tilt, POINT_TILT), 0.0)  # (n,)
+        f_normal = np.where(faces_meet, hand_over(tilt, NORMAL_TILT), 0.0)
+        point, normal = q_point.copy(), q_normal.copy()
+        rest = np.flatnonzero((f_point < 1.0) | (f_normal < 1.0))  # the learned pipeline answers these
+        if len(rest):
+            pp, pn = self._learned(p[rest], R[rest], h_A[rest], h_B[rest], sat_n[rest], depth[rest])
+            fp, fn = f_point[rest, None], f_normal[rest, None]
+            point[rest] = fp * q_point[rest] + (1.0 - fp) * pp
+            mixed = fn * q_normal[rest] + (1.0 - fn) * pn
+            normal[rest] = mixed / np.linalg.norm(mixed, axis=1, keepdims=True)
+        return point, normal, depth
+
+    def _learned(self, p, R, h_A, h_B, sat_n, depth):
+        """(point (n, 3) [m], normal (n, 3) unit A->B): the geometric estimate corrected by
+        the networks, in the octant frames of encodings.frame_blend, clipped outside
+        DOMAIN_DEPTH (the answer where the faces do not meet face on face)."""
         out = (depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])
         point, normal = np.zeros_like(p), np.zeros_like(p)
         for sigma, coef in frame_blend(p):  # the octant frame, and its neighbours near a plane
@@ -96,8 +116,8 @@ class ContactPredictor(MLPPredictor):
             if len(rows) == 0:
                 continue
             p_c, R_c = reflect(sigma[rows], p[rows], R[rows])
-            x, point_est, normal_est, overlap = features(p_c, R_c, h_A[rows], 0.5 * sB[rows], with_overlap=True)
-            y = self._correction(x, p_c, R_c, h_A[rows], 0.5 * sB[rows], depth[rows], overlap)
+            x, point_est, normal_est, overlap = features(p_c, R_c, h_A[rows], h_B[rows], with_overlap=True)
+            y = self._correction(x, p_c, R_c, h_A[rows], h_B[rows], depth[rows], overlap)
             c = coef[rows, None]
             point[rows] += c * (sigma[rows] * (point_est + POINT_STEP * y[:, :3]))
             normal[rows] += c * (sigma[rows] * (normal_est + y[:, 3:6]))
@@ -107,7 +127,7 @@ class ContactPredictor(MLPPredictor):
         if np.any(out):
             bound = h_A + CLIP_MARGIN
             point = np.where(out[:, None], np.clip(point, -bound, bound), point)
-        return point, normal, depth
+        return point, normal
 
     def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
         from learned_contact.compiled import improved_predict
