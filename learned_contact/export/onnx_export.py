@@ -21,18 +21,35 @@ What the exported graphs hold (standard ONNX operators, opset 17, no custom ops)
   force direction, reflected back), computed in float32; `depth` (the 15-axis
   separating-axis test) in float64.
 - "improved": the whole pipeline of predictor.ContactPredictor, computed in float64
-  inside the graph (inputs cast up, outputs cast down to float32): canonicalisation,
-  the 15-axis separating-axis test, the geometric prior (reference face, B's
-  incident face clipped by Sutherland-Hodgman with the fixed 9-vertex budget, the
-  depth-weighted centroid, the edge-edge midpoint where the patch is empty), the 91
-  features, the 64-64 SiLU MLP and the correction of the prior, with the octant-plane
-  blend of encodings.frame_blend (the poses within SYMMETRY_BAND of one of A's planes
-  answered in the neighbouring frames too, gathered into one batch and summed back
-  with ScatterND). Nothing is left for the simulator to add. float64 inside, because the geometry branches (the least
-  overlap of 15 axes, the reference face, which clipped vertices are kept) and its
-  depth-weighted patch amplifies rounding on shallow contacts: the same graph in
-  float32 differs from the compiled path by up to 3.8e-4 m and 0.035 deg (800
-  held-out poses), in float64 by 2.4e-7 m and 2.2e-6 deg (the answers' float32 rounding).
+  inside the graph (inputs cast up, outputs cast down to float32). The learned answer:
+  canonicalisation, the 15-axis separating-axis test, the geometric prior (reference
+  face, B's incident face clipped by Sutherland-Hodgman with the fixed 9-vertex budget,
+  the depth-weighted centroid, the edge-edge midpoint where the patch is empty), the 91
+  features, the 64-64 SiLU MLP (and the resting expert, by its gate and the slab scale)
+  and the correction of the prior, with the octant-plane blend of encodings.frame_blend
+  (the poses within SYMMETRY_BAND of one of A's planes answered in the neighbouring
+  frames too, gathered into one batch and summed back with ScatterND), clipped outside
+  the domain. Drake's face-on-face quadrature (model.quadrature.face_on_face, on the
+  separating-axis normal of the pose as given): the faces that meet, the two 4-triangle
+  fans, the 16 polygons (B's triangle j clipped by the three sides of A's triangle i, by
+  A's face plane and by the two 45 deg trims) clipped as one (16 n, 9, 3) batch with
+  the fixed 9-vertex budget, their areas, centroids and overlaps, the 32 sliver strips
+  (edges clipped in the parameter t by the other face's triangle and the overlap),
+  the weighted point and normal, the tilt (arccos: float32 Acos refined by two float64
+  Newton steps, onnxruntime having no float64 Acos; within 1e-14 rad over the
+  hand-over bands). The answer: the quadrature's where two faces meet, handed over to
+  the learned one by quadrature.hand_over of the tilt (point over POINT_TILT, normal
+  over NORMAL_TILT; 0 outside DOMAIN_DEPTH and where the quadrature's weight is 0). The
+  learned answer is computed for every pose (a graph does not skip rows), the
+  quadrature's taken as it is where its hand-over weight is 1. Nothing is left for the
+  simulator to add. float64 inside, because the geometry branches (the least overlap
+  of 15 axes, the reference face, which clipped vertices are kept) and the depth- and
+  overlap-weighted patches amplify rounding on shallow contacts (overlaps of
+  micrometres against coordinates of metres): the learned pipeline alone, as a
+  float32 graph, differed from the compiled path by up to 3.8e-4 m and 0.035 deg (800
+  held-out poses); the float64 graph differs from the numpy reference path by 2.4e-7
+  m and 2.4e-6 deg (the answers' float32 rounding; 5,000 random poses and 2,000 each
+  resting and tilted up to 40 deg). It holds 2,368 nodes (1,191 without the quadrature).
 - Domain handling: both graphs reproduce outside="clip" (interface.DOMAIN_DEPTH,
   CLIP_MARGIN): where the separating-axis depth lies outside DOMAIN_DEPTH the point
   is clamped into A's box grown by CLIP_MARGIN (the paper's point lies on A's surface
@@ -60,6 +77,7 @@ from learned_contact.export.onnx_graph import IR_VERSION, OPSET, onnx_type
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH
 from learned_contact.model.encodings import FLIPS, LENGTH_SCALE, PAPER_FRAME, SYMMETRY_BAND
 from learned_contact.model.expert import DOMAIN_FIELDS_V2, R_SLAB
+from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT
 from learned_contact.predictors.improved import POINT_STEP
 from learned_contact.predictors.loading import load_weights
 from testbed.geometry.boxes import sat_normal
@@ -197,13 +215,27 @@ def improved_graph(predictor):
     idx = g.unsq(rows, [1])
     point = g.op("ScatterND", zeros, idx, point_t, reduction="add")
     normal = g.op("ScatterND", zeros, idx, normal_t, reduction="add")
-    n = g.unsq(g.op("Gather", g.op("Shape", p0), g.i(0)), [0])
-    own = lambda a: g.op("Slice", a, g.i([0]), n, g.i([0]))  # noqa: E731  (the first n rows: own frames)
-    depth, fallback = own(depth), own(g.mul(sigma, normal_est))
+    # the separating axis and depth of the pose as given (predictor._predict_numpy's sat_normal)
+    _, _, sat_n, depth, _ = og.sat(g, p0, R0, hA0, hB0)
     length = g.op("Sqrt", g.rsum(g.mul(normal, normal), 1, keep=1))
     ok = g.op("And", g.op("Greater", length, g.f(1e-9)), g.op("Not", g.op("IsInf", length)))
-    normal = g.where(ok, g.div(normal, g.where(ok, length, g.f(1.0))), fallback)
-    _outputs(g, _clip_outside(g, point, depth, hA0), normal, depth)
+    normal = g.where(ok, g.div(normal, g.where(ok, length, g.f(1.0))), sat_n)
+    point = _clip_outside(g, point, depth, hA0)
+    # Drake's face-on-face quadrature (learned_contact.model.quadrature), handed over to the
+    # learned answer above as the faces tilt; 0 outside DOMAIN_DEPTH and where the faces miss
+    q_point, q_normal, q_weight, tilt = og.face_on_face(g, p0, R0, hA0, hB0, sat_n)
+    meet = g.op("And", g.op("And", g.op("GreaterOrEqual", depth, g.f(DOMAIN_DEPTH[0])),
+                            g.op("LessOrEqual", depth, g.f(DOMAIN_DEPTH[1]))), g.op("Greater", q_weight, g.f(0.0)))
+    f_point = g.where(meet, _ramp_off(g, tilt, *POINT_TILT), g.f(0.0))
+    f_normal = g.where(meet, _ramp_off(g, tilt, *NORMAL_TILT), g.f(0.0))
+    # where a weight is 1 the quadrature's answer as it is (the numpy path evaluates nothing else)
+    whole_p, whole_n = g.op("GreaterOrEqual", f_point, g.f(1.0)), g.op("GreaterOrEqual", f_normal, g.f(1.0))
+    blend = lambda f, q, x: g.add(g.mul(f, q), g.mul(g.sub(g.f(1.0), f), x))  # noqa: E731
+    point = g.where(whole_p, q_point, blend(f_point, q_point, point))
+    mixed = blend(f_normal, q_normal, normal)
+    mixed = g.div(mixed, g.op("Sqrt", g.rsum(g.mul(mixed, mixed), 1, keep=1)))
+    normal = g.where(g.op("And", whole_p, whole_n), q_normal, mixed)
+    _outputs(g, point, normal, depth)
     return g
 
 
