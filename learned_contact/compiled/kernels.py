@@ -27,7 +27,10 @@ from learned_contact.compiled.prior import (
     patch_estimate,
     reflect,
     sat_depth,
+    sat_normal,
+    sat_overlap,
 )
+from learned_contact.compiled.quadrature import face_on_face, face_on_face_scratch, face_tilt, hand_over
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE
 from learned_contact.model.encodings import PAPER_FRAME
 
@@ -37,6 +40,10 @@ POINT_STEP = 0.5  # [m] per unit of the improved MLP's point outputs (predictor.
 # into the cached machine code of improved_predict and recompiles only when this file changes
 SYMMETRY_BAND = 0.02
 R_SLAB = 0.01  # learned_contact.model.expert.R_SLAB (a literal for the same reason): the slab scale without an expert
+# [rad] learned_contact.model.quadrature.POINT_TILT and NORMAL_TILT (literals for the same reason): the
+# tilts between the two faces over which the face-on-face answer hands over to the learned one
+POINT_TILT = (math.radians(20.0), math.radians(30.0))
+NORMAL_TILT = (math.radians(2.0), math.radians(4.0))
 _FRAME = np.ascontiguousarray(PAPER_FRAME)
 
 
@@ -262,13 +269,22 @@ def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
     return (1.0 - g) * s, g * s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims, eact, domain, has_expert):
-    """The improved predictor (predictor.ContactPredictor.predict, outside='clip'), with
-    the octant-plane blend (encodings.frame_blend: the own frame, then the frames with
+    """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): Drake's
+    face-on-face quadrature (learned_contact.compiled.quadrature.face_on_face on the
+    separating-axis normal) where two faces meet within DOMAIN_DEPTH, handed over by the
+    tilt between them (POINT_TILT for the point, NORMAL_TILT for the normal) to the
+    learned pipeline, which is evaluated only where a hand-over weight is below 1: the
+    octant-plane blend (encodings.frame_blend: the own frame, then the frames with
     sign flips in FLIPS order, skipped where their weight is 0) and, when has_expert,
     the resting expert (eparams, edims, eact: pack_mlp of it; domain (11,) or (9,): its gate's
-    bounds in either layout, learned_contact.model.expert.weights), each network evaluated only where its weight is not 0.
+    bounds in either layout, learned_contact.model.expert.weights), each network evaluated only
+    where its weight is not 0, clipped outside DOMAIN_DEPTH; then point = f_point q_point +
+    (1 - f_point) learned point, normal = normalise(f_normal q_normal + (1 - f_normal) learned
+    normal), as ContactPredictor._predict_numpy. The quadrature itself runs only where its
+    weights can be above 0 (depth within DOMAIN_DEPTH, tilt below POINT_TILT[1]); elsewhere
+    the numpy path's 0 x q_point is 0 (q is finite there: the blend is the learned answer).
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
@@ -284,14 +300,38 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     hA, hB, S, p_c, R_c = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
     work, RT, axes, overlap = np.empty(6), np.empty((3, 3)), np.empty((15, 3)), np.empty(15)
     poly, tmp, dep = np.empty((MAX_VERTS, 3)), np.empty((MAX_VERTS, 3)), np.empty(MAX_VERTS)
-    pe, ne, half, sigma, ne0 = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    pen0 = 0.0
+    pe, ne, half, sigma = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    sat_n, q_point, q_normal, l_point, l_normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    frame, planes, items, q_poly = face_on_face_scratch()
     for r in range(n):
         ia = 0 if sA.shape[0] == 1 else r
         ib = 0 if sB.shape[0] == 1 else r
         for c in range(3):
             hA[c], hB[c] = 0.5 * sA[ia, c], 0.5 * sB[ib, c]
-            point[r, c], normal[r, c] = 0.0, 0.0
+        # the separating axis in A's frame (testbed.geometry.boxes.sat_normal) picks the faces
+        sat_overlap(p[r], R[r], hA, hB, axes, overlap)
+        pen = sat_normal(p[r], axes, overlap, sat_n)[0]
+        depth[r] = pen
+        out = pen < DOMAIN_DEPTH[0] or pen > DOMAIN_DEPTH[1]
+        f_point, f_normal = 0.0, 0.0
+        tilt = face_tilt(R[r], sat_n)
+        if out or tilt >= POINT_TILT[1]:
+            # both hand-over weights are 0: the numpy path's quadrature enters only as 0 x (a finite value)
+            for c in range(3):
+                q_point[c], q_normal[c] = 0.0, 0.0
+            q_weight = 0.0
+        else:
+            q_weight, tilt = face_on_face(p[r], R[r], hA, hB, sat_n, frame, planes, items, q_poly, q_point, q_normal)
+        if q_weight > 0.0:  # the faces meet (within DOMAIN_DEPTH)
+            f_point = hand_over(tilt, POINT_TILT[0], POINT_TILT[1])
+            f_normal = hand_over(tilt, NORMAL_TILT[0], NORMAL_TILT[1])
+        if not (f_point < 1.0 or f_normal < 1.0):  # the quadrature alone: no network runs
+            for c in range(3):
+                point[r, c], normal[r, c] = q_point[c], q_normal[c]
+            continue
+        # the learned pipeline (ContactPredictor._learned)
+        for c in range(3):
+            l_point[c], l_normal[c] = 0.0, 0.0
         canonicalise(p[r], R[r], S, p_c, R_c)
         band_half_weights(p[r], SYMMETRY_BAND, half)
         for f in range(8):
@@ -303,9 +343,9 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
             if not coef > 0.0:
                 continue
             reflect(p[r], R[r], sigma, p_c, R_c)
-            pen, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
-            features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen, k, weight)
-            w_main, w_expert = expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert)
+            pen_c, k, weight = patch_estimate(p_c, R_c, hA, hB, work, RT, axes, overlap, poly, tmp, dep, pe, ne)
+            features(x, p_c, R_c, hA, hB, overlap, pe, ne, pen_c, k, weight)
+            w_main, w_expert = expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert)  # the numpy path's depth
             if w_main > 0.0:
                 mlp_forward(x, params, dims, act, h0, h1, y)
                 for c in range(6):
@@ -317,27 +357,30 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
                 mlp_forward(x, eparams, edims, eact, h0, h1, ye)
                 for c in range(6):
                     y[c] += w_expert * ye[c]
-            if f == 0:
-                pen0 = pen
-                for c in range(3):
-                    ne0[c] = ne[c]
             for c in range(3):
-                point[r, c] += coef * (sigma[c] * (pe[c] + POINT_STEP * y[c]))
-                normal[r, c] += coef * (sigma[c] * (ne[c] + y[3 + c]))
+                l_point[c] += coef * (sigma[c] * (pe[c] + POINT_STEP * y[c]))
+                l_normal[c] += coef * (sigma[c] * (ne[c] + y[3 + c]))
         length2 = 0.0
         for c in range(3):
-            length2 += normal[r, c] * normal[r, c]
+            length2 += l_normal[c] * l_normal[c]
         length = math.sqrt(length2)
         ok = math.isfinite(length) and length > 1e-9
-        out = pen0 < DOMAIN_DEPTH[0] or pen0 > DOMAIN_DEPTH[1]
         for c in range(3):
-            normal[r, c] = normal[r, c] / length if ok else S[c] * ne0[c]
-            v = point[r, c]
+            l_normal[c] = l_normal[c] / length if ok else sat_n[c]
+            v = l_point[c]
             if out:
                 bound = hA[c] + CLIP_MARGIN
                 v = min(max(v, -bound), bound)
-            point[r, c] = v
-        depth[r] = pen0
+            l_point[c] = v
+        # the hand-over (weights 0 outside DOMAIN_DEPTH and where the faces do not meet)
+        length2 = 0.0
+        for c in range(3):
+            point[r, c] = f_point * q_point[c] + (1.0 - f_point) * l_point[c]
+            normal[r, c] = f_normal * q_normal[c] + (1.0 - f_normal) * l_normal[c]
+            length2 += normal[r, c] * normal[r, c]
+        length = math.sqrt(length2)
+        for c in range(3):
+            normal[r, c] = normal[r, c] / length
     return point, normal, depth, 0, 0
 
 
