@@ -17,9 +17,8 @@ pairwise (`_pairwise`). The two paths agree to rounding: on 65,000 random, resti
 tilted poses the outputs differ by at most 9e-16 m (point), 0 (normal, weight) and
 2e-16 rad (tilt, np.arccos against math.acos); 98-100 % of the points bit for bit.
 
-Division by zero gives inf or NaN as in the numpy path (error_model="numpy"; the only
-unguarded one, a sliver's normal direction of length 0, needs the two faces at exactly
-90 deg), not an exception.
+Division by zero gives inf or NaN as in the numpy path (error_model="numpy"), not an
+exception; the divisions the numpy path guards are guarded the same way.
 
 Caution (numba's cache): a function cached with cache=True is recompiled only when its
 own source file changes, not when a function it calls from another file does; after an
@@ -374,8 +373,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     level = face_level - 0.5 * depth_at
     for c in range(3):
         point[c] = (point[c] - along_nA * nA[c]) + level * nA[c]
-    for k in range(16, 48):  # unit sliver normals (no guard, as the numpy path)
-        length = _norm(items[k, 4:7])
+    for k in range(16, 48):  # unit sliver normals (a zero one stays 0, as in the numpy path)
+        length = max(_norm(items[k, 4:7]), 1e-300)
         for c in range(3):
             items[k, 4 + c] = items[k, 4 + c] / length
     for c in range(3):
