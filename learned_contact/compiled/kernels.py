@@ -273,7 +273,7 @@ def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
 def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims, eact, domain, has_expert):
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): Drake's
     face-on-face quadrature (learned_contact.compiled.quadrature.face_on_face on the
-    separating-axis normal) where two faces meet within DOMAIN_DEPTH, handed over by the
+    separating-axis normal) where two faces meet (depth >= DOMAIN_DEPTH[0]), handed over by the
     tilt between them (POINT_TILT for the point, NORMAL_TILT for the normal) to the
     learned pipeline, which is evaluated only where a hand-over weight is below 1: the
     octant-plane blend (encodings.frame_blend: the own frame, then the frames with
@@ -283,7 +283,7 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     where its weight is not 0, clipped outside DOMAIN_DEPTH; then point = f_point q_point +
     (1 - f_point) learned point, normal = normalise(f_normal q_normal + (1 - f_normal) learned
     normal), as ContactPredictor._predict_numpy. The quadrature itself runs only where its
-    weights can be above 0 (depth within DOMAIN_DEPTH, tilt below POINT_TILT[1]); elsewhere
+    weights can be above 0 (depth >= DOMAIN_DEPTH[0], tilt below POINT_TILT[1]); elsewhere
     the numpy path's 0 x q_point is 0 (q is finite there: the blend is the learned answer).
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
     n = p.shape[0]
@@ -315,14 +315,14 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
         out = pen < DOMAIN_DEPTH[0] or pen > DOMAIN_DEPTH[1]
         f_point, f_normal = 0.0, 0.0
         tilt = face_tilt(R[r], sat_n)
-        if out or tilt >= POINT_TILT[1]:
+        if pen < DOMAIN_DEPTH[0] or tilt >= POINT_TILT[1]:
             # both hand-over weights are 0: the numpy path's quadrature enters only as 0 x (a finite value)
             for c in range(3):
                 q_point[c], q_normal[c] = 0.0, 0.0
             q_weight = 0.0
         else:
             q_weight, tilt = face_on_face(p[r], R[r], hA, hB, sat_n, frame, planes, items, q_poly, q_point, q_normal)
-        if q_weight > 0.0:  # the faces meet (within DOMAIN_DEPTH)
+        if q_weight > 0.0:  # the faces meet (from DOMAIN_DEPTH[0] on; no upper bound)
             f_point = hand_over(tilt, POINT_TILT[0], POINT_TILT[1])
             f_normal = hand_over(tilt, NORMAL_TILT[0], NORMAL_TILT[1])
         if not (f_point < 1.0 or f_normal < 1.0):  # the quadrature alone: no network runs

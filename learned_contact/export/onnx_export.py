@@ -39,7 +39,7 @@ What the exported graphs hold (standard ONNX operators, opset 17, no custom ops)
   Newton steps, onnxruntime having no float64 Acos; within 1e-14 rad over the
   hand-over bands). The answer: the quadrature's where two faces meet, handed over to
   the learned one by quadrature.hand_over of the tilt (point over POINT_TILT, normal
-  over NORMAL_TILT; 0 outside DOMAIN_DEPTH and where the quadrature's weight is 0). The
+  over NORMAL_TILT; 0 below DOMAIN_DEPTH[0] and where the quadrature's weight is 0). The
   learned answer is computed for every pose (a graph does not skip rows), the
   quadrature's taken as it is where its hand-over weight is 1. Nothing is left for the
   simulator to add. float64 inside, because the geometry branches (the least overlap
@@ -222,10 +222,9 @@ def improved_graph(predictor):
     normal = g.where(ok, g.div(normal, g.where(ok, length, g.f(1.0))), sat_n)
     point = _clip_outside(g, point, depth, hA0)
     # Drake's face-on-face quadrature (learned_contact.model.quadrature), handed over to the
-    # learned answer above as the faces tilt; 0 outside DOMAIN_DEPTH and where the faces miss
+    # learned answer above as the faces tilt; 0 below DOMAIN_DEPTH[0] and where the faces miss
     q_point, q_normal, q_weight, tilt = og.face_on_face(g, p0, R0, hA0, hB0, sat_n)
-    meet = g.op("And", g.op("And", g.op("GreaterOrEqual", depth, g.f(DOMAIN_DEPTH[0])),
-                            g.op("LessOrEqual", depth, g.f(DOMAIN_DEPTH[1]))), g.op("Greater", q_weight, g.f(0.0)))
+    meet = g.op("And", g.op("GreaterOrEqual", depth, g.f(DOMAIN_DEPTH[0])), g.op("Greater", q_weight, g.f(0.0)))
     f_point = g.where(meet, _ramp_off(g, tilt, *POINT_TILT), g.f(0.0))
     f_normal = g.where(meet, _ramp_off(g, tilt, *NORMAL_TILT), g.f(0.0))
     # where a weight is 1 the quadrature's answer as it is (the numpy path evaluates nothing else)

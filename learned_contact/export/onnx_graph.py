@@ -617,7 +617,7 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         else:
             normal_s = g.sub(g.op("Neg", direction), nB4)
         slivers.append((g.reshape(weight_s, [-1, 16]), g.reshape(centre_s, [-1, 16, 3]),
-                        g.reshape(g.div(normal_s, norm(g, normal_s)), [-1, 16, 3])))
+                        g.reshape(g.div(normal_s, g.op("Max", norm(g, normal_s), g.f(1e-300))), [-1, 16, 3])))
     (wB, cB_s, nB_s), (wA, cA_s, nA_s) = slivers
     w_all = g.op("Concat", w, wB, wA, axis=1)  # (n, 48)
     c_all = g.op("Concat", centroid, cB_s, cA_s, axis=1)

@@ -212,7 +212,7 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
     point = np.einsum("nk,nkj->nj", w_all, c_all) / safe[:, None]
     depth_at = np.einsum("nk,nk->n", w, overlap) / np.where(w.sum(axis=1) > 0.0, w.sum(axis=1), 1.0)
     point = point - np.einsum("nj,nj->n", point, normal_A)[:, None] * normal_A + (face_level - 0.5 * depth_at)[:, None] * normal_A
-    n_sl = [v / np.linalg.norm(v, axis=-1, keepdims=True) for v in sliver_n]
+    n_sl = [v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300) for v in sliver_n]  # 0 stays 0
     direction = (w[:, :, None] * main_normal[:, None, :]).sum(axis=1) + sum(
         (sw[..., None] * v).reshape(n, 16, 3).sum(axis=1) for sw, v in zip(sliver_w, n_sl))
     normal = direction / np.maximum(np.linalg.norm(direction, axis=1, keepdims=True), 1e-300)

@@ -90,9 +90,11 @@ class ContactPredictor(MLPPredictor):
     def _predict_numpy(self, p, R, sA, sB, with_depth: bool):
         h_A, h_B = 0.5 * sA, 0.5 * sB
         sat_n, depth, _ = sat_normal(p, R, h_A, h_B)
-        in_domain = (depth >= DOMAIN_DEPTH[0]) & (depth <= DOMAIN_DEPTH[1])
+        # the faces meet: overlap over A's face (weight > 0); no upper depth bound (the quadrature
+        # holds while the overlap is thin against the tetrahedra, a half width deep, and its point
+        # lies on A's face, inside the clip box), so nothing jumps at DOMAIN_DEPTH[1]
         q_point, q_normal, q_weight, tilt = face_on_face(p, R, h_A, h_B, sat_n)
-        faces_meet = in_domain & (q_weight > 0.0)
+        faces_meet = (depth >= DOMAIN_DEPTH[0]) & (q_weight > 0.0)
         f_point = np.where(faces_meet, hand_over(tilt, POINT_TILT), 0.0)  # (n,)
         f_normal = np.where(faces_meet, hand_over(tilt, NORMAL_TILT), 0.0)
         point, normal = q_point.copy(), q_normal.copy()
@@ -100,8 +102,8 @@ class ContactPredictor(MLPPredictor):
         if len(rest):
             pp, pn = self._learned(p[rest], R[rest], h_A[rest], h_B[rest], sat_n[rest], depth[rest])
             fp, fn = f_point[rest, None], f_normal[rest, None]
-            point[rest] = fp * q_point[rest] + (1.0 - fp) * pp
-            mixed = fn * q_normal[rest] + (1.0 - fn) * pn
+            point[rest] = np.where(fp > 0.0, fp * q_point[rest] + (1.0 - fp) * pp, pp)
+            mixed = np.where(fn > 0.0, fn * q_normal[rest] + (1.0 - fn) * pn, pn)
             normal[rest] = mixed / np.linalg.norm(mixed, axis=1, keepdims=True)
         return point, normal, depth
 
