@@ -213,7 +213,7 @@ def _polygon(frame, planes, i, j, face_level, poly, item):
 
 
 @njit(cache=True, error_model="numpy")
-def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, item):
+def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, item, p, R, hA, hB, axes):
     """The sliver along the edge e0 -> e1 (frame rows) of the face centred at frame row
     centre, clipped by the other face's triangle (planes[side_row:side_row + 3], sides in
     A's face plane) and to where the overlap is >= 0 (own_b: B's edge, overlap below A's
@@ -269,7 +269,21 @@ def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, 
     w0, w1, w2 = w0 - s * g0, w1 - s * g1, w2 - s * g2
     g = max(math.sqrt((w0 * w0 + w1 * w1) + w2 * w2), 1e-12)
     w0, w1, w2 = w0 / g, w1 / g, w2 / g
-    item[0] = area * y_bar
+    # the fade where this edge runs within one overlap of the other face's edge (quadrature.face_on_face)
+    uA, vA, uB, vB = axes[0], axes[1], axes[2], axes[3]
+    if own_b:  # how far inside A's face rectangle, and the overlap there
+        xu = xc0 if uA == 0 else (xc1 if uA == 1 else xc2)
+        xv = xc0 if vA == 0 else (xc1 if vA == 1 else xc2)
+        inside = min(hA[uA] - abs(xu), hA[vA] - abs(xv))
+        o_c = max(face_level - ((xc0 * nA[0] + xc2 * nA[2]) + xc1 * nA[1]), 0.0)
+    else:  # how far inside B's face rectangle (in B's frame)
+        d0, d1, d2 = xc0 - p[0], xc1 - p[1], xc2 - p[2]
+        qu = (R[0, uB] * d0 + R[1, uB] * d1) + R[2, uB] * d2
+        qv = (R[0, vB] * d0 + R[1, vB] * d1) + R[2, vB] * d2
+        inside = min(hB[uB] - abs(qu), hB[vB] - abs(qv))
+        o_c = max(((nB[0] * (cB[0] - xc0) + nB[2] * (cB[2] - xc2)) + nB[1] * (cB[1] - xc1)) / facing, 0.0)
+    u = min(max(inside / (o_c if o_c > 0.0 else 1.0), 0.0), 1.0)
+    item[0] = area * y_bar * (u * u * (3.0 - 2.0 * u))
     item[1], item[2], item[3] = xc0 + y_bar * w0, xc1 + y_bar * w1, xc2 + y_bar * w2
     if own_b:  # B's side face's inward normal lies in B's face plane
         s = (w0 * nB[0] + w2 * nB[2]) + w1 * nB[1]
@@ -353,9 +367,9 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     for i in range(4):
         for j in range(4):
             _sliver(frame, planes, _P_SIDE_A + 3 * i, _F_CB + j, _F_CB + (j + 1) % 4, _F_CENTRE_B, True,
-                    face_level, facing, items[_I_SLIVER_B + 4 * i + j])
+                    face_level, facing, items[_I_SLIVER_B + 4 * i + j], p, R, hA, hB, (uA, vA, uB, vB))
             _sliver(frame, planes, _P_SIDE_B + 3 * j, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, False,
-                    face_level, facing, items[_I_SLIVER_A + 4 * i + j])
+                    face_level, facing, items[_I_SLIVER_A + 4 * i + j], p, R, hA, hB, (uA, vA, uB, vB))
     # the weighted means (numpy's orders: pairwise for the weight sums, left to right otherwise)
     weight = _pairwise(items, 0, 0, 48)
     safe = weight if weight > 0.0 else 1.0

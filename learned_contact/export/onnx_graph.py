@@ -571,6 +571,10 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     p0_B, out_B, flip_B = _sides(g, tri_B, nA4)
     edge_B0, edge_B1 = (g.op("Expand", g.unsq(x, [1]), shape16_3) for x in (cB, cB_next))
     edge_A0, edge_A1 = (g.op("Expand", g.unsq(x, [2]), shape16_3) for x in (cA, cA_next))
+    e_u4, e_v4 = g.unsq(e_u, [1, 2]), g.unsq(e_v, [1, 2])  # (n, 1, 1, 3)
+    b_u4, b_v4 = g.unsq(g.row_at(b, u_B), [1, 2]), g.unsq(g.row_at(b, v_B), [1, 2])
+    hA_u3, hA_v3 = g.unsq(g.vec_at(hA, u_A), [2]), g.unsq(g.vec_at(hA, v_A), [2])  # (n, 1, 1)
+    hB_u3, hB_v3 = g.unsq(g.vec_at(hB, u_B), [2]), g.unsq(g.vec_at(hB, v_B), [2])
     slivers = []
     for e0, e1, sides, axis, inward_centre, local_depth, own in (
             (edge_B0, edge_B1, (p0_A, out_A, flip_A), 2, centre_B, depth_of, "B"),
@@ -608,7 +612,18 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         edge = g.div(span, g.op("Max", norm(g, span), g.f(1e-12)))
         direction = g.sub(direction, g.mul(dot(g, direction, edge, 1), edge))
         direction = g.div(direction, g.op("Max", norm(g, direction), g.f(1e-12)))
-        weight_s = g.mul(area_s, y_bar)
+        # the fade where this edge runs within one overlap of the other face's edge
+        # (quadrature.face_on_face: _inside_other_face, smoothstep of inside / overlap)
+        if own == "B":  # inside A's face rectangle, in A's frame
+            qu, qv, hu, hv = dot(g, x_c, e_u4), dot(g, x_c, e_v4), hA_u3, hA_v3
+        else:  # inside B's face rectangle, in B's frame
+            rel = g.sub(x_c, g.unsq(p, [1, 2]))
+            qu, qv, hu, hv = dot(g, rel, b_u4), dot(g, rel, b_v4), hB_u3, hB_v3
+        inside = g.op("Min", g.sub(hu, g.op("Abs", qu)), g.sub(hv, g.op("Abs", qv)))
+        o_c = g.op("Max", local_depth(x_c), zero)
+        u_f = g.clip(g.div(inside, g.where(g.op("Greater", o_c, zero), o_c, one)), zero, one)
+        fade = g.mul(g.mul(u_f, u_f), g.sub(g.f(3.0), g.mul(g.f(2.0), u_f)))
+        weight_s = g.mul(g.mul(area_s, y_bar), fade)
         centre_s = g.add(x_c, g.mul(g.unsq(y_bar, [3]), direction))
         if own == "B":  # B's side face's inward normal lies in B's face plane
             w_B = g.sub(direction, g.mul(dot(g, direction, nB4, 1), nB4))

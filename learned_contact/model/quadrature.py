@@ -168,6 +168,19 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
     edge_A0 = np.broadcast_to(cA[:, :, None, :], (n, 4, 4, 3))
     edge_A1 = np.broadcast_to(cA[:, nxt, None, :], (n, 4, 4, 3))
     sliver_w, sliver_c, sliver_n = [], [], []
+    R_BA = np.swapaxes(R_AB, 1, 2)
+
+    def _inside_other_face(x, own):
+        """(n, 4, 4) [m] how far points x (n, 4, 4, 3) on one face's edge lie inside the other
+        face's rectangle (its distance to the rectangle's border, < 0 outside): A's face for
+        B's edges, B's face for A's."""
+        if own == "B":
+            q, h, ax_u, ax_v = x, h_A, u_A, v_A
+        else:  # x in B's frame
+            q, h, ax_u, ax_v = np.einsum("nkj,nabj->nabk", R_BA, x - p_AB[:, None, None, :]), h_B, u_B, v_B
+        qu = np.take_along_axis(q, ax_u[:, None, None, None], axis=3)[..., 0]
+        qv = np.take_along_axis(q, ax_v[:, None, None, None], axis=3)[..., 0]
+        return np.minimum(h[rows, ax_u][:, None, None] - np.abs(qu), h[rows, ax_v][:, None, None] - np.abs(qv))
     for e0, e1, clip_tri, inward_centre, local_depth, own in (
             (edge_B0, edge_B1, tri[:, :, None], centre_B, depth_of, "B"),
             (edge_A0, edge_A1, tri_B[:, None, :], top, depth_B_at, "A")):
@@ -197,7 +210,16 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         edge = (e1 - e0) / np.maximum(np.linalg.norm(e1 - e0, axis=-1, keepdims=True), 1e-12)
         direction = direction - np.einsum("nijk,nijk->nij", direction, edge)[..., None] * edge
         direction /= np.maximum(np.linalg.norm(direction, axis=-1, keepdims=True), 1e-12)
-        sliver_w.append(area_s * y_bar)
+        # Where this edge runs within one overlap of the other face's edge (stacked boxes of
+        # one footprint: the two edges coincide) the side fields of both boxes meet and the
+        # strip model does not hold; the strip fades from whole, one overlap inside the
+        # other face, to nothing on its edge, so that the answer stays continuous as one
+        # edge crosses the other (B's strip hands over to A's; a step of the slivers' whole
+        # weight otherwise: 0.14 deg of normal at 1 cm of overlap).
+        inside = _inside_other_face(x_c, own)
+        o_c = np.maximum(local_depth(x_c), 0.0)
+        u = np.clip(inside / np.where(o_c > 0.0, o_c, 1.0), 0.0, 1.0)
+        sliver_w.append(area_s * y_bar * (u * u * (3.0 - 2.0 * u)))
         sliver_c.append(x_c + y_bar[..., None] * direction)
         if own == "B":  # B's side face's inward normal lies in B's face plane
             w_B = direction - np.einsum("nijk,nk->nij", direction, n_Bout)[..., None] * n_Bout[:, None, None, :]
