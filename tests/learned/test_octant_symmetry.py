@@ -23,6 +23,7 @@ from learned_contact.model.encodings import SYMMETRY_BAND, canonicalise, feature
 from learned_contact.predictors.improved import POINT_STEP
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import rotation_from_rpy
+from testbed.geometry.boxes import sat_normal
 
 SIZES = np.array([CONTAINER_TYPES[t].size for t in ("1CC", "1AA", "1AAA")])
 EPS = 1e-9  # [m] half the step across a plane
@@ -122,14 +123,16 @@ def _plain(pred, p, R, sA, sB):
 
 def test_beyond_the_bands_the_answer_is_unchanged():
     """Where every |p_k| >= SYMMETRY_BAND the blend gives the own frame weight exactly 1:
-    the numpy path returns the plain pipeline's answer bit for bit."""
+    the numpy path's learned pipeline (ContactPredictor._learned, which answers where the
+    face-on-face quadrature does not) returns the plain pipeline's answer bit for bit."""
     pred = load_predictor(compiled=False)
     p, R, sA, sB = _poses(200, 7)
     out = lambda v: np.where(v >= 0.0, 1.0, -1.0) * (SYMMETRY_BAND + 10.0 * np.abs(v))  # noqa: E731
     p[:100, :2] = out(p[:100, :2])  # on A: off the x and y bands
     p[100:, 0], p[100:, 2] = out(p[100:, 0]), out(p[100:, 2])  # beside A: off the x and z bands
     assert np.all(load_predictor().in_domain(p, R, size_A=sA, size_B=sB))  # no clipping in play
-    point, normal = pred.predict(p, R, size_A=sA, size_B=sB)
+    sat_n, depth, _ = sat_normal(p, R, 0.5 * sA, 0.5 * sB)
+    point, normal = pred._learned(p, R, 0.5 * sA, 0.5 * sB, sat_n, depth)
     ref_point, ref_normal = _plain(pred, p, R, sA, sB)
     np.testing.assert_array_equal(point, ref_point)
     np.testing.assert_array_equal(normal, ref_normal)

@@ -108,6 +108,18 @@ def test_where_the_gate_is_shut_the_answer_is_the_main_networks_bit_for_bit(ship
         np.testing.assert_array_equal(a[1][shut], b[1][shut])
 
 
+def _learned(pred, p, R, *, size_A, size_B):
+    """The learned pipeline's answer (ContactPredictor._learned, numpy): what the expert
+    and the slab scale shape. The predictor answers with the face-on-face quadrature where
+    two faces meet (issue 30), which covers every pose the expert's gate opens on, so these
+    tests look at the pipeline beneath it (it answers beyond the quadrature's tilt bands)."""
+    pred = pred.with_compiled(False)
+    size_A = np.broadcast_to(size_A, p.shape)
+    size_B = np.broadcast_to(size_B, p.shape)
+    sat_n, depth, _ = sat_normal(p, R, 0.5 * size_A, 0.5 * size_B)
+    return pred._learned(p, R, 0.5 * size_A, 0.5 * size_B, sat_n, depth)
+
+
 @pytest.mark.parametrize("quantity, bounds", [("depth", (5.5e-4, 1e-3)), ("x", (0.4, 0.5)),
                                               ("yaw_deg", (2.02, 3.0))])
 def test_the_hand_over_is_continuous(shipped, quantity, bounds):
@@ -120,12 +132,12 @@ def test_the_hand_over_is_continuous(shipped, quantity, bounds):
     expert_only = dataclasses.replace(shipped, expert_domain=np.array([1.0, 2.0, 1.0, 2.0, 1.0, 2.0, 10.0, 20.0, 1e-12]))
     lo, hi = bounds
     for q in (lo, 0.5 * (lo + hi), hi):
-        a = shipped.predict(*_stack(roll_deg=0.01, **{quantity: q})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
-        b = shipped.predict(*_stack(roll_deg=0.01, **{quantity: q + 1e-9})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        a = _learned(shipped, *_stack(roll_deg=0.01, **{quantity: q})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
+        b = _learned(shipped, *_stack(roll_deg=0.01, **{quantity: q + 1e-9})[:2], size_A=SIZE_20FT, size_B=SIZE_20FT)
         assert np.abs(a[0] - b[0]).max() < 1e-6 and np.abs(a[1] - b[1]).max() < 1e-6
     mid = _stack(roll_deg=0.01, **{quantity: 0.5 * (lo + hi)})[:2]
-    gap = np.linalg.norm(plain.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0]
-                         - expert_only.predict(*mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0])
+    gap = np.linalg.norm(_learned(plain, *mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0]
+                         - _learned(expert_only, *mid, size_A=SIZE_20FT, size_B=SIZE_20FT)[0])
     assert gap > 1e-3
 
 
@@ -168,7 +180,7 @@ def test_the_paper_kind_refuses_an_expert(tmp_path):
 
 def test_on_a_level_stack_the_answer_is_the_priors_and_the_correction_returns_smoothly():
     """Where the prior is exact (a level stack: the overlap is a slab) the correction
-    vanishes by construction: at r = 0 the predictor answers its geometric prior bit for
+    vanishes by construction: at r = 0 the learned pipeline answers its geometric prior bit for
     bit (measured against Drake on 214 poses with r < 0.001: prior 0.023 mm median, the
     expert's uncorrected answer 0.56 mm); the weight grows smoothly with r and is whole
     from R_SLAB on. A predictor without the construction fails the first assertion."""
@@ -176,7 +188,7 @@ def test_on_a_level_stack_the_answer_is_the_priors_and_the_correction_returns_sm
 
     shipped = load_predictor()
     p, R, s = _stack(depth=1e-4)
-    point, normal = shipped.predict(p, R, size_A=s, size_B=s)
+    point, normal = _learned(shipped, p, R, size_A=s, size_B=s)
     prior_point, prior_normal = GeometricPrior().predict(p, R, size_A=s, size_B=s)
     np.testing.assert_array_equal(point, prior_point)
     np.testing.assert_allclose(normal, prior_normal, rtol=0, atol=1e-15)
@@ -185,8 +197,8 @@ def test_on_a_level_stack_the_answer_is_the_priors_and_the_correction_returns_sm
     without = dataclasses.replace(shipped, expert_domain=np.r_[shipped.expert_domain[:8], 1e-12])
     p, R, _ = _stack(depth=1e-4, roll_deg=1e-9)
     near_prior = GeometricPrior().predict(p, R, size_A=s, size_B=s)[0]
-    assert np.linalg.norm(without.predict(p, R, size_A=s, size_B=s)[0] - near_prior) > 1e-5
-    assert np.linalg.norm(shipped.predict(p, R, size_A=s, size_B=s)[0] - near_prior) < 1e-9
+    assert np.linalg.norm(_learned(without, p, R, size_A=s, size_B=s)[0] - near_prior) > 1e-5
+    assert np.linalg.norm(_learned(shipped, p, R, size_A=s, size_B=s)[0] - near_prior) < 1e-9
     # the weight along r: 0 at 0, smooth, 1 from R_SLAB
     h = 0.5 * s
     ratios, answers = [], []
