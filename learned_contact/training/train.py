@@ -357,16 +357,16 @@ def rescore_shipped(out_dir=None, *, progress: bool = True) -> dict:
     """Re-scores the shipped improved predictor with today's inference code, without
     retraining: the same labelled sets (cached) and splits as train_default's at the shipped
     seed, the weights as shipped; metrics.json's "improved" figures are replaced (everything
-    else, the paper baseline and Drake's point contact included, is kept) and report.md is
-    rendered again. For a change of the predictor's answer that leaves its networks as they
+    else, the paper baseline and Drake's point contact included, is kept) and both are
+    written to out_dir (default: the shipped folder itself) with report.md rendered again. For a change of the predictor's answer that leaves its networks as they
     are (issue 30: Drake's face-on-face quadrature). Returns the new metrics dict."""
     out_dir = Path(out_dir) if out_dir is not None else SHIPPED_DIR
-    metrics = json.loads((out_dir / "metrics.json").read_text())
-    saved = json.loads((out_dir / "config.json").read_text())
+    metrics = json.loads((SHIPPED_DIR / "metrics.json").read_text())
+    saved = json.loads((SHIPPED_DIR / "config.json").read_text())
     config = TrainConfig(seed=saved["seed"])
     default = json.loads(json.dumps(config.to_json()))  # tuples as lists, as saved
     if {**default, **saved, "expert": {**default["expert"], **(saved.get("expert") or {})}} != default:
-        raise ValueError(f"{out_dir / 'config.json'}: not the default configuration at seed {saved['seed']}; "
+        raise ValueError(f"{SHIPPED_DIR / 'config.json'}: not the default configuration at seed {saved['seed']}; "
                          "re-score it by retraining (train_default)")
     data = default_datasets(config, progress=progress)
     g_tr, g_va = _split(data["general"], int(config.n_val_fraction * len(data["general"])))
@@ -377,6 +377,7 @@ def rescore_shipped(out_dir=None, *, progress: bool = True) -> dict:
     fresh = evaluate_models(predictor, None, {"train": (g_tr, s_tr), "validation": (g_va, s_va, *expert_val),
                                               "external": external}, paper_sets={})
     metrics["improved"] = fresh["improved"]
+    out_dir.mkdir(parents=True, exist_ok=True)
     write_report(metrics, out_dir)
     return metrics
 
