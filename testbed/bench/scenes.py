@@ -20,7 +20,7 @@ from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario
 
 OPEN_SCENES = (("two_stack", 1.0), ("five_stack", 1.0), ("bridge", 1.0), ("nine_mixed_stack", 1.0),
-               ("crane_misaligned", 3.0))
+               ("crane_misaligned", 3.0), ("yard_small", 1.0))  # yard_small: the poses a yard's stacks take
 CLOSED_SCENES = DEFAULT_SCENES  # the validation's closed-loop scenes, each at its own duration
 QUICK_OPEN_SCENES = (("two_stack", 0.5),)
 QUICK_CLOSED_SCENES = (("two_stack", 1.0), ("crane_misaligned", 2.0), ("overhang_tip", 0.9))  # overhang_tip: where the point decides
