@@ -37,8 +37,10 @@ import numpy as np
 
 from learned_contact.data.labels import make_dataset, pair_scene, posed_query
 from learned_contact.evaluation.cost import first_call_s, one_blas_thread, per_pair_s
+from learned_contact.predictors.poses import rotation_from_rpy
 from learned_contact.sources import SHIPPED_NAMES, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.geometry.boxes import sat_normal
 
 TARGETS = {  # ratio name -> upper bound (issue 10; the centred stacks' and the 0.5: issue 30)
     "single improved compiled / drake point-pair set+query": 0.5,
@@ -77,9 +79,6 @@ def centred_stacks(n: int, seed: int = 5150):
     """n centred stacks, what a yard is made of (no Drake): B on A of the same type (1CC, 1AA,
     1AAA), B's centre within 2 cm of A's, yaw within 1 deg, roll and pitch within 0.05 deg,
     overlap 5 um - 0.5 mm log-uniform placed by the separating axis. (p, R, size_A, size_B)."""
-    from learned_contact.predictors.poses import rotation_from_rpy
-    from testbed.geometry.boxes import sat_normal
-
     rng = np.random.default_rng(seed)
     sizes = np.array([CONTAINER_TYPES[t].size for t in ("1CC", "1AA", "1AAA")])
     s = sizes[rng.integers(0, len(sizes), n)]

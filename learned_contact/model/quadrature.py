@@ -185,8 +185,8 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
             (edge_B0, edge_B1, tri[:, :, None], centre_B, depth_of, "B"),
             (edge_A0, edge_A1, tri_B[:, None, :], top, depth_B_at, "A")):
         t0, t1 = np.zeros((n, 4, 4)), np.ones((n, 4, 4))
-        planes = [(lambda x, k=k: _side_value(clip_tri, k, normal_A, x)) for k in range(3)]
-        planes.append(lambda x: -local_depth(x))  # inside the overlap: depth >= 0
+        planes = [(lambda x, k=k, tri=clip_tri: _side_value(tri, k, normal_A, x)) for k in range(3)]
+        planes.append(lambda x, depth=local_depth: -depth(x))  # inside the overlap: depth >= 0
         for f in planes:
             s0, s1 = f(e0), f(e1)
             t_cross = s0 / np.where(s0 - s1 == 0.0, 1.0, s0 - s1)

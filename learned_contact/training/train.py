@@ -357,9 +357,10 @@ def rescore_shipped(out_dir=None, *, progress: bool = True) -> dict:
     """Re-scores the shipped improved predictor with today's inference code, without
     retraining: the same labelled sets (cached) and splits as train_default's at the shipped
     seed, the weights as shipped; metrics.json's "improved" figures are replaced (everything
-    else, the paper baseline and Drake's point contact included, is kept) and both are
-    written to out_dir (default: the shipped folder itself) with report.md rendered again. For a change of the predictor's answer that leaves its networks as they
-    are (issue 30: Drake's face-on-face quadrature). Returns the new metrics dict."""
+    else, the paper baseline and Drake's point contact included, is kept) and written to
+    out_dir (default: the shipped folder itself) with report.md rendered again. For a change
+    of the predictor's answer that leaves its networks as they are (issue 30: Drake's
+    face-on-face quadrature). Returns the new metrics dict."""
     out_dir = Path(out_dir) if out_dir is not None else SHIPPED_DIR
     metrics = json.loads((SHIPPED_DIR / "metrics.json").read_text())
     saved = json.loads((SHIPPED_DIR / "config.json").read_text())

@@ -20,7 +20,7 @@ from learned_contact.evaluation.metrics import point_normal_errors
 from learned_contact.export.onnx_export import export_onnx, probe_poses
 from learned_contact.model.encodings import features, reflect
 from learned_contact.model.expert import R_SLAB, slab_axes, slab_ratio
-from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT, face_on_face, hand_over
+from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT, face_on_face
 from learned_contact.sources import load_predictor as load_source
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy

@@ -22,8 +22,8 @@ from learned_contact import load_predictor
 from learned_contact.model.encodings import SYMMETRY_BAND, canonicalise, features
 from learned_contact.predictors.improved import POINT_STEP
 from testbed.bodies.containers import CONTAINER_TYPES
-from testbed.geometry.rotations import rotation_from_rpy
 from testbed.geometry.boxes import sat_normal
+from testbed.geometry.rotations import rotation_from_rpy
 
 SIZES = np.array([CONTAINER_TYPES[t].size for t in ("1CC", "1AA", "1AAA")])
 EPS = 1e-9  # [m] half the step across a plane
