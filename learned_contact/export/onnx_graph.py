@@ -223,16 +223,17 @@ def sat(g: Graph, p, R, hA, hB):
     return overlap, axes, normal, depth, k
 
 
-def _clip_poly(g: Graph, poly, count, ax, sign, lim):
-    """Sutherland-Hodgman with a fixed vertex budget (geometry._clip): poly (n, V, 3),
-    count (n, 1) int64, clipped to sign * x[ax] <= lim (ax (n, 1) int64, sign and lim
-    (n, 1)). Returns (poly (n, V, 3), count (n, 1))."""
+def clip_halfspace(g: Graph, poly, count, normal, limit):
+    """learned_contact.model.clipping.clip_halfspace: Sutherland-Hodgman with a fixed vertex
+    budget; poly (N, V, 3) [m], count (N, 1) int64, clipped to normal . x <= limit (normal
+    (N, 3) of any length, limit (N, 1) [m x |normal|]).
+    Returns (poly (N, V, 3), count (N, 1)). As numpy's indexed assignment does, the last
+    kept candidate past the budget overwrites the last slot."""
     V = MAX_VERTS
-    idx = g.i(np.arange(V)[None, :])
-    valid = g.op("Less", idx, count)
-    nxt = g.where(g.op("Less", g.i(np.arange(1, V + 1)[None, :]), count), g.i(np.arange(1, V + 1)[None, :]), g.i(0))
-    axv = g.op("Expand", g.unsq(ax, [2]), g.i([1, V, 1]))
-    s = g.sub(g.mul(sign, g.sq(g.pick(poly, axv, 2), [2])), lim)  # (n, V)
+    ar = np.arange(V)[None, :]
+    valid = g.op("Less", g.i(ar), count)
+    nxt = g.where(g.op("Less", g.i(ar + 1), count), g.i(ar + 1), g.i(0))
+    s = g.sub(dot(g, poly, g.unsq(normal, [1])), limit)  # (N, V)
     s_next = g.pick(s, nxt, 1)
     v_next = g.pick(poly, g.op("Expand", g.unsq(nxt, [2]), g.i([1, 1, 3])), 1)
     inside, inside_next = g.op("LessOrEqual", s, g.f(0.0)), g.op("LessOrEqual", s_next, g.f(0.0))
@@ -243,12 +244,16 @@ def _clip_poly(g: Graph, poly, count, ax, sign, lim):
     keep = g.reshape(g.op("Concat", g.unsq(g.op("And", valid, inside), [2]),
                           g.unsq(g.op("And", valid, g.op("Xor", inside, inside_next)), [2]), axis=2), [0, 2 * V])
     keep_i = g.op("Cast", keep, to=7)  # int64
-    pos = g.op("Min", g.sub(g.op("CumSum", keep_i, g.i(1)), g.i(1)), g.i(V - 1))
-    # out[r, pos[r, c]] = cand[r, c] where keep: a one-hot (n, V, 2V) matrix product (at most
-    # V candidates are kept, each at its own position, so every sum has one non-zero term)
-    hit = g.op("And", g.op("Equal", g.unsq(pos, [1]), g.i(np.arange(V)[None, :, None])), g.unsq(keep, [1]))
+    rank = g.sub(g.op("CumSum", keep_i, g.i(1)), g.i(1))  # (N, 2V) each kept candidate's place
+    total = g.rsum(keep_i, 1, keep=1)  # (N, 1) candidates kept
+    # slot v < V - 1 takes the kept candidate of rank v; slot V - 1 the last kept one (rank
+    # total - 1) when total >= V, else none: a one-hot (N, V, 2V) matrix product in which
+    # every sum has at most one non-zero term
+    last = g.where(g.op("GreaterOrEqual", total, g.i(V)), g.sub(total, g.i(1)), g.i(-1))
+    target = g.op("Concat", g.op("Expand", g.i(np.arange(V - 1)[None, :]), g.op("Shape", total)), last, axis=1)
+    hit = g.op("And", g.op("Equal", g.unsq(rank, [1]), g.unsq(target, [2])), g.unsq(keep, [1]))  # (N, V, 2V)
     out = g.op("MatMul", g.op("Cast", hit, to=_onnx_type(g.dt)), cand)
-    return out, g.op("Min", g.rsum(keep_i, 1, keep=1), g.i(V))
+    return out, g.op("Min", total, g.i(V))
 
 
 def _weighted_centroid(g: Graph, poly, count, depth):
@@ -290,12 +295,13 @@ def face_patch(g: Graph, p, R, hA, hB, axis):
     zeros = g.op("Expand", g.f(np.zeros((1, MAX_VERTS - 4, 3))), g.op("Concat", g.op("Shape", axis), g.i([3]), axis=0))
     poly = g.op("Concat", *[g.unsq(c, [1]) for c in corners], zeros, axis=1)
     count = g.op("Expand", g.i([[4]]), g.op("Shape", axis))
-    for k in (1, 2):
+    for k in (1, 2):  # A's face rectangle: -hA[ax] <= x[ax] <= hA[ax] along its in-plane axes
         ax = g.op("Gather", g.i(np.array([(a + k) % 3 for a in range(3)])), axis)
+        e_ax, lim = g.onehot(ax, 3, dtype=g.dt), g.vec_at(hA, ax)
         for sg in (1.0, -1.0):
-            poly, count = _clip_poly(g, poly, count, ax, g.f(sg), g.vec_at(hA, ax))
+            poly, count = clip_halfspace(g, poly, count, g.mul(g.f(sg), e_ax), lim)
     top = g.vec_at(hA, axis)
-    poly, count = _clip_poly(g, poly, count, axis, sigma, top)
+    poly, count = clip_halfspace(g, poly, count, g.mul(sigma, g.onehot(axis, 3, dtype=g.dt)), top)
     axv = g.op("Expand", g.unsq(axis, [2]), g.i([1, MAX_VERTS, 1]))
     depth = g.op("Max", g.sub(top, g.mul(sigma, g.sq(g.pick(poly, axv, 2), [2]))), g.f(0.0))
     centroid, weight = _weighted_centroid(g, poly, count, depth)
@@ -406,38 +412,6 @@ def batch_shape(g: Graph, like, dims):
     return g.op("Concat", n, g.i(list(dims)), axis=0)
 
 
-def clip_plane(g: Graph, poly, count, normal, limit):
-    """quadrature._clip: Sutherland-Hodgman with a fixed vertex budget; poly (N, V, 3),
-    count (N, 1) int64, clipped to normal . x <= limit (normal (N, 3), limit (N, 1)).
-    Returns (poly (N, V, 3), count (N, 1)). As numpy's indexed assignment does, the last
-    kept candidate past the budget overwrites the last slot."""
-    V = MAX_VERTS
-    ar = np.arange(V)[None, :]
-    valid = g.op("Less", g.i(ar), count)
-    nxt = g.where(g.op("Less", g.i(ar + 1), count), g.i(ar + 1), g.i(0))
-    s = g.sub(dot(g, poly, g.unsq(normal, [1])), limit)  # (N, V)
-    s_next = g.pick(s, nxt, 1)
-    v_next = g.pick(poly, g.op("Expand", g.unsq(nxt, [2]), g.i([1, 1, 3])), 1)
-    inside, inside_next = g.op("LessOrEqual", s, g.f(0.0)), g.op("LessOrEqual", s_next, g.f(0.0))
-    diff = g.sub(s, s_next)
-    denom = g.where(g.op("Equal", diff, g.f(0.0)), g.f(1.0), diff)
-    crossing = g.add(poly, g.mul(g.unsq(g.div(s, denom), [2]), g.sub(v_next, poly)))
-    cand = g.reshape(g.op("Concat", g.unsq(poly, [2]), g.unsq(crossing, [2]), axis=2), [0, 2 * V, 3])
-    keep = g.reshape(g.op("Concat", g.unsq(g.op("And", valid, inside), [2]),
-                          g.unsq(g.op("And", valid, g.op("Xor", inside, inside_next)), [2]), axis=2), [0, 2 * V])
-    keep_i = g.op("Cast", keep, to=7)  # int64
-    rank = g.sub(g.op("CumSum", keep_i, g.i(1)), g.i(1))  # (N, 2V) each kept candidate's place
-    total = g.rsum(keep_i, 1, keep=1)  # (N, 1) candidates kept
-    # slot v < V - 1 takes the kept candidate of rank v; slot V - 1 the last kept one (rank
-    # total - 1) when total >= V, else none: a one-hot (N, V, 2V) matrix product in which
-    # every sum has at most one non-zero term
-    last = g.where(g.op("GreaterOrEqual", total, g.i(V)), g.sub(total, g.i(1)), g.i(-1))
-    target = g.op("Concat", g.op("Expand", g.i(np.arange(V - 1)[None, :]), g.op("Shape", total)), last, axis=1)
-    hit = g.op("And", g.op("Equal", g.unsq(rank, [1]), g.unsq(target, [2])), g.unsq(keep, [1]))  # (N, V, 2V)
-    out = g.op("MatMul", g.op("Cast", hit, to=_onnx_type(g.dt)), cand)
-    return out, g.op("Min", total, g.i(V))
-
-
 def area_centroid(g: Graph, poly, count):
     """quadrature._area_centroid: (area (N, 1) [m^2], centroid (N, 3) [m]) of convex polygons
     poly (N, V, 3) with count (N, 1) vertices, fan-triangulated from their first vertex."""
@@ -537,17 +511,18 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     for k in range(3):
         nrm = g.reshape(g.op("Expand", g.unsq(g.sq(g.take(normal_i, [k], 2), [2]), [2]), shape16_3), [-1, 3])
         lim = g.reshape(g.op("Expand", g.take(limit_i, [k], 2), shape16), [-1, 1])
-        poly, count = clip_plane(g, poly, count, nrm, lim)
+        poly, count = clip_halfspace(g, poly, count, nrm, lim)
     # by A's face plane
-    poly, count = clip_plane(g, poly, count, g.reshape(g.op("Expand", nA4, shape16_3), [-1, 3]),
-                             g.reshape(g.op("Expand", g.unsq(face_level, [2]), shape16), [-1, 1]))
+    poly, count = clip_halfspace(g, poly, count, g.reshape(g.op("Expand", nA4, shape16_3), [-1, 3]),
+                                 g.reshape(g.op("Expand", g.unsq(face_level, [2]), shape16), [-1, 1]))
     # by the 45 deg trims along the outer edges of B's face (edge j), then of A's face (edge i)
     for e0, e1, centre, axis in ((cB, cB_next, centre_B, 1), (cA, cA_next, top, 2)):
         w_in = _inward(g, e0, e1, g.unsq(centre, [1]), nA3)  # (n, 4, 3)
         gvec = g.op("Neg", g.add(g.mul(g.f(0.5), nA3), w_in))
         c = g.op("Neg", g.add(g.mul(g.f(0.5), face_level), dot(g, w_in, e0)))  # (n, 4)
-        poly, count = clip_plane(g, poly, count, g.reshape(g.op("Expand", g.unsq(gvec, [axis]), shape16_3), [-1, 3]),
-                                 g.reshape(g.op("Expand", g.unsq(c, [axis]), shape16), [-1, 1]))
+        nrm = g.reshape(g.op("Expand", g.unsq(gvec, [axis]), shape16_3), [-1, 3])
+        lim = g.reshape(g.op("Expand", g.unsq(c, [axis]), shape16), [-1, 1])
+        poly, count = clip_halfspace(g, poly, count, nrm, lim)
     area, centroid = area_centroid(g, poly, count)
     centroid = g.reshape(centroid, [-1, 16, 3])
     overlap = g.op("Max", g.sub(face_level, dot(g, centroid, nA3)), zero)  # (n, 16)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from learned_contact.model.clipping import clip_halfspace, clip_halfspaces_scalar
 from testbed.geometry.boxes import CORNER_SIGNS, corners_of_B_in_A, sat_axes, sat_normal, sat_overlap  # noqa: F401 (moved)
 
 
@@ -50,67 +51,7 @@ def contact_type(p_AB, R_AB, h_A, h_B) -> np.ndarray:
 
 # ------------------------------------------------------------ contact patch estimate
 _MAX_VERTS = 9  # a quad clipped by 5 half-planes has at most 9 vertices
-
-
-def _clip(poly, count, axis, sign, limit):
-    """Clips convex polygons (n, V, 3) with `count` (n,) vertices to sign*x[axis] <= limit
-    (axis (n,) int, sign scalar or (n,), limit (n,)). Sutherland-Hodgman, vectorised with a fixed
-    vertex budget. Returns (poly (n, V, 3), count (n,))."""
-    n, V, _ = poly.shape
-    rows = np.arange(n)
-    idx = np.arange(V)[None, :]
-    valid = idx < count[:, None]
-    nxt = np.where(idx + 1 < count[:, None], idx + 1, 0)
-    sign = np.reshape(sign, (-1, 1))
-    s = sign * poly[rows[:, None], idx, axis[:, None]] - limit[:, None]  # (n, V)
-    s_next = s[rows[:, None], nxt]
-    v_next = poly[rows[:, None], nxt]
-    inside, inside_next = s <= 0.0, s_next <= 0.0
-    denom = np.where(s - s_next == 0.0, 1.0, s - s_next)
-    cross = poly + (s / denom)[:, :, None] * (v_next - poly)
-    cand = np.stack([poly, cross], axis=2).reshape(n, 2 * V, 3)
-    keep = np.stack([valid & inside, valid & (inside != inside_next)], axis=2).reshape(n, 2 * V)
-    pos = np.minimum(np.cumsum(keep, axis=1) - 1, V - 1)
-    out = np.zeros_like(poly)
-    r, c = np.nonzero(keep)
-    out[r, pos[r, c]] = cand[r, c]
-    return out, np.minimum(keep.sum(axis=1), V)
-
-
 _SCALAR_MAX = 4  # up to this many pairs, _face_patch clips in plain Python
-
-
-def _clip_scalar(poly, planes):
-    """Same result as repeated _clip, one polygon at a time in plain Python.
-    poly (n, V, 3) with 4 valid vertices; planes: [(axis (n,), sign scalar or (n,),
-    limit (n,))]. Returns (poly (n, V, 3), count (n,))."""
-    n, V, _ = poly.shape
-    out = np.zeros_like(poly)
-    counts = np.zeros(n, dtype=int)
-    for r in range(n):
-        verts = [tuple(v) for v in poly[r, :4].tolist()]
-        for ax, sg, lim in planes:
-            a = int(ax[r])
-            sgn = float(np.broadcast_to(sg, (n,))[r])
-            c = float(lim[r])
-            s = [sgn * v[a] - c for v in verts]
-            new = []
-            m = len(verts)
-            for i in range(m):
-                j = i + 1 if i + 1 < m else 0
-                si, sj = s[i], s[j]
-                if si <= 0.0:
-                    new.append(verts[i])
-                if (si <= 0.0) != (sj <= 0.0):
-                    d = si - sj
-                    t = si / d if d != 0.0 else si
-                    vi, vj = verts[i], verts[j]
-                    new.append((vi[0] + t * (vj[0] - vi[0]), vi[1] + t * (vj[1] - vi[1]), vi[2] + t * (vj[2] - vi[2])))
-            verts = new[:V]
-        counts[r] = len(verts)
-        if verts:
-            out[r, : len(verts)] = verts
-    return out, counts
 
 
 def _face_patch(p_AB, R_AB, h_A, h_B, axis):
@@ -133,13 +74,14 @@ def _face_patch(p_AB, R_AB, h_A, h_B, axis):
     poly[:, :4] = np.stack([centre + du + dv, centre - du + dv, centre - du - dv, centre + du - dv], axis=1)
     count = np.full(n, 4)
     top = h_A[rows, axis]
-    planes = [((axis + k) % 3, sg, h_A[rows, (axis + k) % 3]) for k in (1, 2) for sg in (1.0, -1.0)]
-    planes.append((axis, sigma, top))
+    e = np.eye(3)
+    planes = [(sg * e[(axis + k) % 3], h_A[rows, (axis + k) % 3]) for k in (1, 2) for sg in (1.0, -1.0)]
+    planes.append((sigma[:, None] * e[axis], top))
     if n <= _SCALAR_MAX:  # few pairs: plain Python is faster than many tiny numpy calls
-        poly, count = _clip_scalar(poly, planes)
+        poly, count = clip_halfspaces_scalar(poly, count, planes)
     else:
-        for ax, sg, lim in planes:
-            poly, count = _clip(poly, count, ax, sg, lim)
+        for normal, limit in planes:
+            poly, count = clip_halfspace(poly, count, normal, limit)
     depth = top[:, None] - sigma[:, None] * poly[rows[:, None], np.arange(_MAX_VERTS)[None, :], axis[:, None]]
     centroid, weight, _ = _weighted_centroid(poly, count, np.maximum(depth, 0.0))
     centroid[rows, axis] = 0.5 * (centroid[rows, axis] + sigma * top)

@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from learned_contact.model.clipping import clip_halfspace
+
 # The fan: a face's four triangles join its centre to consecutive corners, corners in
 # the order (+u +v), (-u +v), (-u -v), (+u -v) of the face's two in-plane axes.
 _FAN = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
@@ -38,30 +40,6 @@ _FAN = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
 POINT_TILT = (np.radians(20.0), np.radians(30.0))  # [rad]
 NORMAL_TILT = (np.radians(2.0), np.radians(4.0))  # [rad]
 _MAX_VERTS = 9  # a triangle clipped by 6 half-planes keeps at most 9 vertices
-
-
-def _clip(poly, count, normal, limit):
-    """Clips convex polygons poly (N, V, 3) with count (N,) vertices to the half-space
-    normal . x <= limit (normal (N, 3), limit (N,)); Sutherland-Hodgman with a fixed
-    vertex budget V. Returns (poly (N, V, 3), count (N,))."""
-    N, V, _ = poly.shape
-    idx = np.arange(V)[None, :]
-    valid = idx < count[:, None]
-    nxt = np.where(idx + 1 < count[:, None], idx + 1, 0)
-    rows = np.arange(N)[:, None]
-    s = np.einsum("nvj,nj->nv", poly, normal) - limit[:, None]
-    s_next = s[rows, nxt]
-    v_next = poly[rows, nxt]
-    inside, inside_next = s <= 0.0, s_next <= 0.0
-    denom = np.where(s - s_next == 0.0, 1.0, s - s_next)
-    cross = poly + (s / denom)[:, :, None] * (v_next - poly)
-    cand = np.stack([poly, cross], axis=2).reshape(N, 2 * V, 3)
-    keep = np.stack([valid & inside, valid & (inside != inside_next)], axis=2).reshape(N, 2 * V)
-    pos = np.minimum(np.cumsum(keep, axis=1) - 1, V - 1)
-    out = np.zeros_like(poly)
-    r, c = np.nonzero(keep)
-    out[r, pos[r, c]] = cand[r, c]
-    return out, np.minimum(keep.sum(axis=1), V)
 
 
 def _area_centroid(poly, count):
@@ -135,9 +113,9 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         limit = np.einsum("nij,nij->ni", out, p0)
         nrm = np.repeat(out[:, :, None, :], 4, axis=2).reshape(16 * n, 3)
         lim = np.repeat(limit[:, :, None], 4, axis=2).reshape(16 * n)
-        poly, count = _clip(poly, count, nrm, lim)
+        poly, count = clip_halfspace(poly, count, nrm, lim)
     face_level = h_A[rows, a]  # A's face along normal_A
-    poly, count = _clip(poly, count, np.repeat(normal_A, 16, axis=0), np.repeat(face_level, 16))
+    poly, count = clip_halfspace(poly, count, np.repeat(normal_A, 16, axis=0), np.repeat(face_level, 16))
     # Near an outer edge of either face, within half the local overlap of it, the side
     # face's tetrahedra take over (their 45 deg boundary runs from the edge to the medial
     # axis): o(x) / 2 - inward distance from the edge <= 0 keeps the face's own part.
@@ -146,7 +124,7 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         w_in = _inward(e0, e1, centre, normal_A)  # (n, 4, 4, 3)
         g = -(0.5 * normal_A[:, None, None, :] + w_in)
         c = -(0.5 * face_level[:, None, None] + np.einsum("nijk,nijk->nij", w_in, e0))
-        poly, count = _clip(poly, count, g.reshape(16 * n, 3), c.reshape(16 * n))
+        poly, count = clip_halfspace(poly, count, g.reshape(16 * n, 3), c.reshape(16 * n))
     area, centroid = _area_centroid(poly, count)
     centroid = centroid.reshape(n, 16, 3)
     overlap = np.maximum(face_level[:, None] - np.einsum("nkj,nj->nk", centroid, normal_A), 0.0)  # (n, 16)
