@@ -6,7 +6,11 @@ Frames and units as there: A's frame; p (3,) [m] is B's centre in A, R (3, 3) B'
 A (columns), hA, hB (3,) half extents [m], n (3,) the separating-axis normal (unit, A->B,
 in A) that picks the two faces. One pose per call, plain loops over small arrays: the
 caller allocates the scratch once per batch (`face_on_face_scratch`) and passes it in, so a call
-allocates nothing.
+allocates nothing. The helpers are inlined into face_on_face (numba's inline="always": as
+separate functions, the calls that pass a dozen arrays each cost more than the clipping
+itself; inlined, the quadrature takes 3.4-3.7 us per pair instead of 4.6-5.3, measured
+side by side on 4,096 centred stacks and 2,048 stacking and general poses), and an edge
+that misses a triangle leaves its sliver at zero without the rest of the arithmetic.
 
 The operation order follows the numpy reference wherever a comparison depends on it (the
 clipping tests, the sliver interval ends), and elsewhere too where it costs nothing: the
@@ -68,7 +72,7 @@ def _norm(x):
     return math.sqrt((x[0] * x[0] + x[1] * x[1]) + x[2] * x[2])
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _pairwise(items, col, start, count):
     """sum of items[start:start + count, col] in the order of numpy's pairwise sum
     (ndarray.sum along a contiguous axis, count <= 128)."""
@@ -100,34 +104,39 @@ def hand_over(tilt, band0, band1):
     return 1.0 - u * u * (3.0 - 2.0 * u)
 
 
-@njit(cache=True, error_model="numpy")
-def _clip(poly, count, normal, limit, out):
-    """Sutherland-Hodgman (quadrature._clip for one polygon): poly (count valid rows of
-    (QUAD_VERTS, 3)) clipped to the half-space normal . x <= limit (normal: the first
-    three entries of a planes row), written to out; returns the new count. Vertices
-    beyond the budget overwrite the last row, as the numpy path's scatter does."""
+@njit(cache=True, inline="always", error_model="numpy")
+def _clip(poly, src, count, n0, n1, n2, limit):
+    """Sutherland-Hodgman (learned_contact.model.clipping.clip_halfspace for one polygon): the polygon poly[src] (count
+    valid rows of (QUAD_VERTS, 3)) clipped to the half-space (n0, n1, n2) . x <= limit,
+    written to poly[1 - src]; returns the new count. Vertices beyond the budget overwrite
+    the last row, as the numpy path's scatter does. Each vertex's signed distance is
+    computed once (carried over to the next side), and rows are indexed, not viewed (a
+    view costs a reference count in numba)."""
+    dst = 1 - src
     n_out = 0
+    s_first = (poly[src, 0, 0] * n0 + poly[src, 0, 2] * n2) + poly[src, 0, 1] * n1 - limit
+    si = s_first
     for i in range(count):
         j = i + 1 if i + 1 < count else 0
-        si = _dot_c(poly[i], normal) - limit
-        sj = _dot_c(poly[j], normal) - limit
+        sj = s_first if j == 0 else (poly[src, j, 0] * n0 + poly[src, j, 2] * n2) + poly[src, j, 1] * n1 - limit
         inside = si <= 0.0
         if inside:
             r = min(n_out, QUAD_VERTS - 1)
             for c in range(3):
-                out[r, c] = poly[i, c]
+                poly[dst, r, c] = poly[src, i, c]
             n_out += 1
         if inside != (sj <= 0.0):
             d = si - sj
             t = si / (1.0 if d == 0.0 else d)
             r = min(n_out, QUAD_VERTS - 1)
             for c in range(3):
-                out[r, c] = poly[i, c] + t * (poly[j, c] - poly[i, c])
+                poly[dst, r, c] = poly[src, i, c] + t * (poly[src, j, c] - poly[src, i, c])
             n_out += 1
+        si = sj
     return min(n_out, QUAD_VERTS)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _side_planes(frame, tri0, tri1, tri2, planes, row):
     """The three sides of the triangle (frame rows tri0, tri1, tri2) as planes
     perpendicular to A's face (quadrature.face_on_face's triangle clips and _side_value):
@@ -147,7 +156,7 @@ def _side_planes(frame, tri0, tri1, tri2, planes, row):
         pl[4], pl[5], pl[6] = p0[0], p0[1], p0[2]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _edge_plane(frame, e0, e1, centre, face_level, plane):
     """The clip that keeps a face's own part near its outer edge e0 -> e1 (frame rows) of
     the face centred at frame row centre (quadrature.face_on_face with _inward): plane =
@@ -170,29 +179,26 @@ def _edge_plane(frame, e0, e1, centre, face_level, plane):
     plane[3] = -(0.5 * face_level + ((w0 * a[0] + w1 * a[1]) + w2 * a[2]))
 
 
-@njit(cache=True, error_model="numpy")
-def _polygon(frame, planes, i, j, face_level, poly, item):
+@njit(cache=True, inline="always", error_model="numpy")
+def _polygon(frame, planes, i, j, face_level, poly, items, k_item):
     """Polygon (i, j): B's triangle j clipped by A's triangle i's sides, A's face plane and
-    both edge clips, evaluated once at its centroid. Fills item[:4] = (area x pressure at
+    both edge clips, evaluated once at its centroid. Fills items[k_item, :4] = (area x pressure at
     the centroid [m^3], centroid (3) [m]) and returns the overlap at the centroid [m]
-    (face_on_face keeps it in item[4] for the mean depth)."""
-    a, b = poly[0], poly[1]
+    (face_on_face keeps it in items[k_item, 4] for the mean depth)."""
     cj, cn = _F_CB + j, _F_CB + (j + 1) % 4
     for c in range(3):
-        a[0, c], a[1, c], a[2, c] = frame[_F_CENTRE_B, c], frame[cj, c], frame[cn, c]
-    count = 3
+        poly[0, 0, c], poly[0, 1, c], poly[0, 2, c] = frame[_F_CENTRE_B, c], frame[cj, c], frame[cn, c]
+    count, src = 3, 0
     for k in range(6):  # A's triangle's 3 sides, A's face plane, the edge clips of B's edge j and A's edge i
         if count == 0:  # nothing left (a polygon of 1 or 2 vertices can still grow a degenerate third)
             break
-        if k < 3:
-            pl = planes[_P_SIDE_A + 3 * i + k]
-            count = _clip(a, count, pl, pl[3], b)
-        elif k == 3:
-            count = _clip(a, count, frame[_F_NA], face_level, b)
+        if k == 3:
+            count = _clip(poly, src, count, frame[_F_NA, 0], frame[_F_NA, 1], frame[_F_NA, 2], face_level)
         else:
-            pl = planes[_P_EDGE_B + j if k == 4 else _P_EDGE_A + i]
-            count = _clip(a, count, pl, pl[3], b)
-        a, b = b, a
+            row = _P_SIDE_A + 3 * i + k if k < 3 else (_P_EDGE_B + j if k == 4 else _P_EDGE_A + i)
+            count = _clip(poly, src, count, planes[row, 0], planes[row, 1], planes[row, 2], planes[row, 3])
+        src = 1 - src
+    a = poly[src]
     # quadrature._area_centroid: fan from the first vertex, areas summed left to right
     total, f0, f1, f2 = -0.0, 0.0, 0.0, 0.0
     for t in range(count - 2):
@@ -205,20 +211,20 @@ def _polygon(frame, planes, i, j, face_level, poly, item):
         f1 += area * (a[0, 1] + (e11 + e21) / 3.0)
         f2 += area * (a[0, 2] + (e12 + e22) / 3.0)
     safe = total if total > 0.0 else 1.0
-    item[1], item[2], item[3] = f0 / safe, f1 / safe, f2 / safe
+    items[k_item, 1], items[k_item, 2], items[k_item, 3] = f0 / safe, f1 / safe, f2 / safe
     nA = frame[_F_NA]
-    overlap = max(face_level - ((item[1] * nA[0] + item[2] * nA[1]) + item[3] * nA[2]), 0.0)
-    item[0] = total * 0.5 * overlap  # pressure at the equal-pressure plane: half the overlap deep
+    overlap = max(face_level - ((items[k_item, 1] * nA[0] + items[k_item, 2] * nA[1]) + items[k_item, 3] * nA[2]), 0.0)
+    items[k_item, 0] = total * 0.5 * overlap  # pressure at the equal-pressure plane: half the overlap deep
     return overlap
 
 
-@njit(cache=True, error_model="numpy")
-def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, item, p, R, hA, hB, axes):
+@njit(cache=True, inline="always", error_model="numpy")
+def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, items, k, p, R, hA, hB, axes):
     """The sliver along the edge e0 -> e1 (frame rows) of the face centred at frame row
     centre, clipped by the other face's triangle (planes[side_row:side_row + 3], sides in
     A's face plane) and to where the overlap is >= 0 (own_b: B's edge, overlap below A's
     face plane; else A's edge, overlap above B's face, / facing = cos of the tilt).
-    Fills item = (area x centroid's distance from the edge [m^3], centre (3) [m], normal
+    Fills items[k] = (area x centroid's distance from the edge [m^3], centre (3) [m], normal
     direction (3), unnormalised) as quadrature.face_on_face's sliver loop."""
     nA, nB, a, b, o = frame[_F_NA], frame[_F_NB], frame[e0], frame[e1], frame[centre]
     cB = frame[_F_CENTRE_B]
@@ -242,7 +248,11 @@ def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, 
             t1 = min(t1, t_cross)
         if s0 > 0.0 and s1 > 0.0:  # wholly outside
             t1 = -1.0
-    ok = t1 > t0
+            break
+    if not t1 > t0:  # the edge misses the triangle: a zero item (what the full computation gives)
+        for c in range(7):
+            items[k, c] = 0.0
+        return
     u0, u1, u2 = a[0] + t0 * (b[0] - a[0]), a[1] + t0 * (b[1] - a[1]), a[2] + t0 * (b[2] - a[2])
     v0, v1, v2 = a[0] + t1 * (b[0] - a[0]), a[1] + t1 * (b[1] - a[1]), a[2] + t1 * (b[2] - a[2])
     if own_b:  # the strip's width at each end [m]: half the local overlap
@@ -252,7 +262,7 @@ def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, 
         h0 = 0.5 * max(((nB[0] * (cB[0] - u0) + nB[2] * (cB[2] - u2)) + nB[1] * (cB[1] - u1)) / facing, 0.0)
         h1 = 0.5 * max(((nB[0] * (cB[0] - v0) + nB[2] * (cB[2] - v2)) + nB[1] * (cB[1] - v1)) / facing, 0.0)
     l0, l1, l2 = v0 - u0, v1 - u1, v2 - u2
-    length = math.sqrt((l0 * l0 + l1 * l1) + l2 * l2) * (1.0 if ok else 0.0)
+    length = math.sqrt((l0 * l0 + l1 * l1) + l2 * l2)
     hsum = h0 + h1 if h0 + h1 > 0.0 else 1.0
     area = _SQRT2 * length * 0.5 * (h0 + h1)
     y_bar = (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum)  # the strip centroid's distance from the edge
@@ -283,18 +293,18 @@ def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, 
         inside = min(hB[uB] - abs(qu), hB[vB] - abs(qv))
         o_c = max(((nB[0] * (cB[0] - xc0) + nB[2] * (cB[2] - xc2)) + nB[1] * (cB[1] - xc1)) / facing, 0.0)
     u = min(max(inside / (o_c if o_c > 0.0 else 1.0), 0.0), 1.0)
-    item[0] = area * y_bar * (u * u * (3.0 - 2.0 * u))
-    item[1], item[2], item[3] = xc0 + y_bar * w0, xc1 + y_bar * w1, xc2 + y_bar * w2
+    items[k, 0] = area * y_bar * (u * u * (3.0 - 2.0 * u))
+    items[k, 1], items[k, 2], items[k, 3] = xc0 + y_bar * w0, xc1 + y_bar * w1, xc2 + y_bar * w2
     if own_b:  # B's side face's inward normal lies in B's face plane
         s = (w0 * nB[0] + w2 * nB[2]) + w1 * nB[1]
         z0, z1, z2 = w0 - s * nB[0], w1 - s * nB[1], w2 - s * nB[2]
         g = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-12)
-        item[4], item[5], item[6] = nA[0] + z0 / g, nA[1] + z1 / g, nA[2] + z2 / g
+        items[k, 4], items[k, 5], items[k, 6] = nA[0] + z0 / g, nA[1] + z1 / g, nA[2] + z2 / g
     else:
-        item[4], item[5], item[6] = -w0 - nB[0], -w1 - nB[1], -w2 - nB[2]
+        items[k, 4], items[k, 5], items[k, 6] = -w0 - nB[0], -w1 - nB[1], -w2 - nB[2]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _faces(R, n):
     """quadrature.faces for one pose: (a, sigma_A, m, s_B): A's face axis a and side sigma_A
     (+-1; A's face normal sigma_A e_a), B's face axis m and side s_B (B's face normal
@@ -355,8 +365,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     # the 16 polygons (A's triangle i, B's triangle j); their overlap at the centroid in column 4
     for i in range(4):
         for j in range(4):
-            item = items[_I_POLY + 4 * i + j]
-            item[4] = _polygon(frame, planes, i, j, face_level, poly, item)
+            k = _I_POLY + 4 * i + j
+            items[k, 4] = _polygon(frame, planes, i, j, face_level, poly, items, k)
     main = frame[_F_MAIN]
     for c in range(3):
         main[c] = nA[c] - nB[c]
@@ -367,9 +377,9 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     for i in range(4):
         for j in range(4):
             _sliver(frame, planes, _P_SIDE_A + 3 * i, _F_CB + j, _F_CB + (j + 1) % 4, _F_CENTRE_B, True,
-                    face_level, facing, items[_I_SLIVER_B + 4 * i + j], p, R, hA, hB, (uA, vA, uB, vB))
+                    face_level, facing, items, _I_SLIVER_B + 4 * i + j, p, R, hA, hB, (uA, vA, uB, vB))
             _sliver(frame, planes, _P_SIDE_B + 3 * j, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, False,
-                    face_level, facing, items[_I_SLIVER_A + 4 * i + j], p, R, hA, hB, (uA, vA, uB, vB))
+                    face_level, facing, items, _I_SLIVER_A + 4 * i + j, p, R, hA, hB, (uA, vA, uB, vB))
     # the weighted means (numpy's orders: pairwise for the weight sums, left to right otherwise)
     weight = _pairwise(items, 0, 0, 48)
     safe = weight if weight > 0.0 else 1.0
