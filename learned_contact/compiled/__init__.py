@@ -17,6 +17,6 @@ learned_contact.predictors.improved and learned_contact.predictors.paper call th
 `load_predictor(..., compiled=True)` (the default).
 """
 
-from learned_contact.compiled.kernels import box_depth, improved_predict, pack_mlp, paper_predict
+from learned_contact.compiled.kernels import box_depth, improved_predict, pack_improved, pack_mlp, paper_predict
 
-__all__ = ["box_depth", "improved_predict", "pack_mlp", "paper_predict"]
+__all__ = ["box_depth", "improved_predict", "pack_improved", "pack_mlp", "paper_predict"]

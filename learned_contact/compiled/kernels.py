@@ -269,8 +269,36 @@ def expert_weights(p_c, R_c, hA, hB, pen, overlap, domain, has_expert):
     return (1.0 - g) * s, g * s
 
 
+def pack_improved(supported, main, expert, domain, has_expert):
+    """(floats (F,) float64, ints (I,) int64): everything improved_predict needs besides the
+    poses, in two arrays (one argument costs ~0.15 us of numba's dispatch per call, and a
+    call for one pair is dominated by such fixed costs). supported (k, 3) [m]; main, expert:
+    pack_mlp of the main network and of the resting expert (of the main one again where there
+    is none); domain: the expert's gate bounds (unread when has_expert is False).
+    floats = supported, main params, expert params, domain; ints = [k, len(main params),
+    len(main dims), main act, len(expert params), len(expert dims), expert act, len(domain),
+    has_expert, main dims, expert dims]."""
+    (params, dims, act), (eparams, edims, eact) = main, expert
+    supported, domain = np.ascontiguousarray(supported, dtype=float).reshape(-1, 3), np.asarray(domain, dtype=float)
+    floats = np.concatenate([supported.ravel(), params, eparams, domain.ravel()])
+    head = [len(supported), len(params), len(dims), act, len(eparams), len(edims), eact, domain.size, int(bool(has_expert))]
+    return floats, np.concatenate([np.array(head, dtype=np.int64), dims, edims]).astype(np.int64)
+
+
+@njit(cache=True)
+def _unpack_improved(floats, ints):
+    """pack_improved's arrays back as (supported, params, dims, act, eparams, edims, eact,
+    domain, has_expert) (views, nothing copied)."""
+    k, n_p, n_d, act, n_ep, n_ed, eact, n_dom = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5], ints[6], ints[7]
+    supported = floats[0:3 * k].reshape((k, 3))
+    o = 3 * k
+    params, eparams, domain = floats[o:o + n_p], floats[o + n_p:o + n_p + n_ep], floats[o + n_p + n_ep:o + n_p + n_ep + n_dom]
+    dims, edims = ints[9:9 + n_d], ints[9 + n_d:9 + n_d + n_ed]
+    return supported, params, dims, act, eparams, edims, eact, domain, ints[8] != 0
+
+
 @njit(cache=True, error_model="numpy")
-def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims, eact, domain, has_expert):
+def improved_predict(p, R, sA, sB, floats, ints):
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): Drake's
     face-on-face quadrature (learned_contact.compiled.quadrature.face_on_face on the
     separating-axis normal) where two faces meet (depth >= DOMAIN_DEPTH[0]), handed over by the
@@ -285,7 +313,9 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
     normal), as ContactPredictor._predict_numpy. The quadrature itself runs only where its
     weights can be above 0 (depth >= DOMAIN_DEPTH[0], tilt below POINT_TILT[1]); elsewhere
     the numpy path's 0 x q_point is 0 (q is finite there: the blend is the learned answer).
+    floats, ints: pack_improved's (the supported sizes, both networks, the gate's bounds).
     Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
+    supported, params, dims, act, eparams, edims, eact, domain, has_expert = _unpack_improved(floats, ints)
     n = p.shape[0]
     point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     status, row = check_inputs(p, R, sA, sB, supported)
@@ -296,12 +326,18 @@ def improved_predict(p, R, sA, sB, supported, params, dims, act, eparams, edims,
         width = max(width, dims[i])
     for i in range(1, edims.shape[0]):
         width = max(width, edims[i])
-    h0, h1, y, x, ye = np.empty(width), np.empty(width), np.empty(6), np.empty(N_FEATURES), np.empty(6)
-    hA, hB, S, p_c, R_c = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty((3, 3))
-    work, RT, axes, overlap = np.empty(6), np.empty((3, 3)), np.empty((15, 3)), np.empty(15)
-    poly, tmp, dep = np.empty((MAX_VERTS, 3)), np.empty((MAX_VERTS, 3)), np.empty(MAX_VERTS)
-    pe, ne, half, sigma = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
-    sat_n, q_point, q_normal, l_point, l_normal = np.empty(3), np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    # the work arrays, as rows of a few allocations (for one pair, ~30 separate ones cost ~0.5 us)
+    net, x = np.empty((2, max(width, 6))), np.empty(N_FEATURES)
+    h0, h1, outs = net[0, :width], net[1, :width], np.empty((2, 6))
+    y, ye = outs[0], outs[1]
+    vec, mats = np.empty((15, 3)), np.empty((2, 3, 3))
+    hA, hB, S, p_c, pe, ne, half, sigma = vec[0], vec[1], vec[2], vec[3], vec[4], vec[5], vec[6], vec[7]
+    sat_n, q_point, q_normal, l_point, l_normal = vec[8], vec[9], vec[10], vec[11], vec[12]
+    work = vec[13:15].reshape(6)
+    R_c, RT = mats[0], mats[1]
+    axes, overlap, dep = np.empty((15, 3)), np.empty(15), np.empty(MAX_VERTS)
+    polys = np.empty((2, MAX_VERTS, 3))
+    poly, tmp = polys[0], polys[1]
     frame, planes, items, q_poly = face_on_face_scratch()
     for r in range(n):
         ia = 0 if sA.shape[0] == 1 else r

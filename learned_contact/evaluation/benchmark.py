@@ -119,7 +119,7 @@ def measure(args) -> dict:
         lambda: improved_features(pb, Rb, sAb, sBb), 3, len(pb))
     packed = [(a[None], b[None], c[None], d[None]) for a, b, c, d in singles]
     res["improved compiled, bare kernel, one pair"] = _per_pair(
-        lambda: [improved_predict(a, b, c, d, fast.supported_sizes, *fast._packed, *fast._packed_expert) for a, b, c, d in packed],
+        lambda: [improved_predict(a, b, c, d, *fast._kernel_args) for a, b, c, d in packed],
         1, len(packed))
 
     code = {tuple(CONTAINER_TYPES[t].size): t for t in ("1CC", "1AA", "1AAA")}

@@ -60,11 +60,13 @@ class ContactPredictor(MLPPredictor):
             object.__setattr__(self, "expert_domain", np.asarray(self.expert_domain, dtype=float).copy())
             layout(self.expert_domain)  # 9 or 11 values, else ValueError
         if self.compiled:
-            from learned_contact.compiled import pack_mlp
+            from learned_contact.compiled import improved_predict, pack_improved, pack_mlp
 
-            packed = pack_mlp(self.expert if self.expert is not None else self.mlp)
+            expert = pack_mlp(self.expert if self.expert is not None else self.mlp)
             domain = self.expert_domain if self.expert is not None else np.zeros(len(DOMAIN_FIELDS))
-            object.__setattr__(self, "_packed_expert", (*packed, np.ascontiguousarray(domain), self.expert is not None))
+            object.__setattr__(self, "_kernel", improved_predict)
+            object.__setattr__(self, "_kernel_args", pack_improved(
+                self.supported_sizes, pack_mlp(self.mlp), expert, domain, self.expert is not None))
         super().__post_init__()
 
     def _correction(self, x, p_c, R_c, h_A, h_B, depth, overlap):
@@ -132,6 +134,4 @@ class ContactPredictor(MLPPredictor):
         return point, normal
 
     def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
-        from learned_contact.compiled import improved_predict
-
-        return improved_predict(p, R, sA, sB, self.supported_sizes, *self._packed, *self._packed_expert)
+        return self._kernel(p, R, sA, sB, *self._kernel_args)
