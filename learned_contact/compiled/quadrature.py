@@ -38,62 +38,37 @@ import numpy as np
 from numba import njit
 
 QUAD_VERTS = 9  # a triangle clipped by 6 half-planes keeps at most 9 vertices (quadrature._MAX_VERTS)
-# scratch rows (`face_on_face_scratch`): frame (13, 3): A's fan corners cA (0-3), B's fan corners cB (4-7),
-# A's face centre (8), B's face centre (9), A's face normal (10), B's face normal towards A
-# (11), the equal-pressure normal (12); planes (32, 7): (normal (3), limit, a point (3)) of
-# A's triangles' sides (i * 3 + k, 0-11), B's triangles' sides in A's face plane (12 + j * 3 + k),
-# the edge clips of B's edges (24 + j) and of A's edges (28 + i); items (48, 7): (weight
-# [m^3], centre (3) [m], normal direction (3)) of the 16 polygons (i * 4 + j), then B's and
-# A's slivers (16 + i * 4 + j, 32 + i * 4 + j)
-_F_CA, _F_CB, _F_TOP, _F_CENTRE_B, _F_NA, _F_NB, _F_MAIN = 0, 4, 8, 9, 10, 11, 12
+# scratch rows (`face_on_face_scratch`): frame (17, 3): A's fan corners (0-3), B's fan corners
+# (4-7), A's face centre (8), B's face centre (9), A's face normal (10), B's face normal
+# towards A (11) [m, or unit] in A, B's fan corners in face coordinates (13-16); planes (32, 7):
+# (normal (3), limit, a point (3)) of A's triangles' sides (i * 3 + k, 0-11), B's triangles'
+# sides in A's face plane (12 + j * 3 + k), the edge clips of B's edges (24 + j) and of A's
+# edges (28 + i); items (10, 12): the current clip's signed distance per vertex (row 0), the
+# values of A's 12 sides at B's face centre and fan corners (rows 1-5) and of B's 12 sides at
+# A's fan corners (rows 6-9); poly (2, QUAD_VERTS, 3): ping-pong polygon buffers [m] in A
+_F_CA, _F_CB, _F_TOP, _F_CENTRE_B, _F_NA, _F_NB, _F_LOCAL_B = 0, 4, 8, 9, 10, 11, 13
 _P_SIDE_A, _P_SIDE_B, _P_EDGE_B, _P_EDGE_A = 0, 12, 24, 28
-_I_POLY, _I_SLIVER_B, _I_SLIVER_A = 0, 16, 32
-_FAN_U = (1.0, -1.0, -1.0, 1.0)  # quadrature._FAN: corners (+u +v), (-u +v), (-u -v), (+u -v)
+_V_SIDE_A, _V_SIDE_B = 1, 6
+# A's fan corners (+u +v), (-u +v), (-u -v), (+u -v) (quadrature._FAN); in face coordinates
+# the outward unit normal of A's edge i (corner i -> i + 1)
+_FAN_U = (1.0, -1.0, -1.0, 1.0)
 _FAN_V = (1.0, 1.0, -1.0, -1.0)
+_OUT_U = (0.0, -1.0, 0.0, 1.0)
+_OUT_V = (1.0, 0.0, -1.0, 0.0)
 _SQRT2 = math.sqrt(2.0)
 
 
 @njit(cache=True)
 def face_on_face_scratch():
-    """(frame (13, 3), planes (32, 7), items (48, 7), poly (2, QUAD_VERTS, 3)): the work
-    arrays of face_on_face, allocated once per batch."""
-    return np.empty((13, 3)), np.empty((32, 7)), np.empty((48, 7)), np.empty((2, QUAD_VERTS, 3))
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _dot_c(x, y):
-    """x . y in the order of numpy's einsum on operands contiguous along the sum."""
-    return (x[0] * y[0] + x[2] * y[2]) + x[1] * y[1]
+    """(frame (17, 3), planes (32, 7), items (10, 12), poly (2, QUAD_VERTS, 3)): the work
+    arrays of face_on_face, allocated once per batch (their rows: the comment above)."""
+    return np.empty((17, 3)), np.empty((32, 7)), np.empty((10, 12)), np.empty((2, QUAD_VERTS, 3))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _norm(x):
     """|x| (np.linalg.norm along an axis: the squares summed left to right)."""
     return math.sqrt((x[0] * x[0] + x[1] * x[1]) + x[2] * x[2])
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _pairwise(items, col, start, count):
-    """sum of items[start:start + count, col] in the order of numpy's pairwise sum
-    (ndarray.sum along a contiguous axis, count <= 128)."""
-    if count < 8:
-        res = -0.0
-        for i in range(count):
-            res += items[start + i, col]
-        return res
-    r0, r1, r2, r3 = items[start, col], items[start + 1, col], items[start + 2, col], items[start + 3, col]
-    r4, r5, r6, r7 = items[start + 4, col], items[start + 5, col], items[start + 6, col], items[start + 7, col]
-    i = 8
-    while i < count - count % 8:
-        b = start + i
-        r0, r1, r2, r3 = r0 + items[b, col], r1 + items[b + 1, col], r2 + items[b + 2, col], r3 + items[b + 3, col]
-        r4, r5, r6, r7 = r4 + items[b + 4, col], r5 + items[b + 5, col], r6 + items[b + 6, col], r7 + items[b + 7, col]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < count:
-        res += items[start + i, col]
-        i += 1
-    return res
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -105,20 +80,25 @@ def hand_over(tilt, band0, band1):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _clip(poly, src, count, n0, n1, n2, limit):
-    """Sutherland-Hodgman (learned_contact.model.clipping.clip_halfspace for one polygon): the polygon poly[src] (count
-    valid rows of (QUAD_VERTS, 3)) clipped to the half-space (n0, n1, n2) . x <= limit,
-    written to poly[1 - src]; returns the new count. Vertices beyond the budget overwrite
-    the last row, as the numpy path's scatter does. Each vertex's signed distance is
-    computed once (carried over to the next side), and rows are indexed, not viewed (a
-    view costs a reference count in numba)."""
+def _clip(poly, src, count, n0, n1, n2, limit, items):
+    """Sutherland-Hodgman (learned_contact.model.clipping.clip_halfspace for one polygon):
+    the polygon poly[src] (count valid rows of (QUAD_VERTS, 3)) clipped to the half-space
+    (n0, n1, n2) . x <= limit. Returns (count, buffer): (count, src) untouched where every
+    vertex is inside, else the clipped polygon written to poly[1 - src]. Vertices beyond
+    the budget overwrite the last row, as the numpy path's scatter does; items[0] takes
+    each vertex's signed distance, computed once in the numpy path's order."""
+    outside = False
+    for i in range(count):
+        s = (poly[src, i, 0] * n0 + poly[src, i, 2] * n2) + poly[src, i, 1] * n1 - limit
+        items[0, i] = s
+        outside |= not s <= 0.0
+    if not outside:
+        return count, src
     dst = 1 - src
     n_out = 0
-    s_first = (poly[src, 0, 0] * n0 + poly[src, 0, 2] * n2) + poly[src, 0, 1] * n1 - limit
-    si = s_first
     for i in range(count):
         j = i + 1 if i + 1 < count else 0
-        sj = s_first if j == 0 else (poly[src, j, 0] * n0 + poly[src, j, 2] * n2) + poly[src, j, 1] * n1 - limit
+        si, sj = items[0, i], items[0, j]
         inside = si <= 0.0
         if inside:
             r = min(n_out, QUAD_VERTS - 1)
@@ -132,8 +112,7 @@ def _clip(poly, src, count, n0, n1, n2, limit):
             for c in range(3):
                 poly[dst, r, c] = poly[src, i, c] + t * (poly[src, j, c] - poly[src, i, c])
             n_out += 1
-        si = sj
-    return min(n_out, QUAD_VERTS)
+    return min(n_out, QUAD_VERTS), dst
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -180,128 +159,54 @@ def _edge_plane(frame, e0, e1, centre, face_level, plane):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _polygon(frame, planes, i, j, face_level, poly, items, k_item):
-    """Polygon (i, j): B's triangle j clipped by A's triangle i's sides, A's face plane and
-    both edge clips, evaluated once at its centroid. Fills items[k_item, :4] = (area x pressure at
-    the centroid [m^3], centroid (3) [m]) and returns the overlap at the centroid [m]
-    (face_on_face keeps it in items[k_item, 4] for the mean depth)."""
-    cj, cn = _F_CB + j, _F_CB + (j + 1) % 4
-    for c in range(3):
-        poly[0, 0, c], poly[0, 1, c], poly[0, 2, c] = frame[_F_CENTRE_B, c], frame[cj, c], frame[cn, c]
-    count, src = 3, 0
-    for k in range(6):  # A's triangle's 3 sides, A's face plane, the edge clips of B's edge j and A's edge i
-        if count == 0:  # nothing left (a polygon of 1 or 2 vertices can still grow a degenerate third)
-            break
-        if k == 3:
-            count = _clip(poly, src, count, frame[_F_NA, 0], frame[_F_NA, 1], frame[_F_NA, 2], face_level)
-        else:
-            row = _P_SIDE_A + 3 * i + k if k < 3 else (_P_EDGE_B + j if k == 4 else _P_EDGE_A + i)
-            count = _clip(poly, src, count, planes[row, 0], planes[row, 1], planes[row, 2], planes[row, 3])
-        src = 1 - src
-    a = poly[src]
-    # quadrature._area_centroid: fan from the first vertex, areas summed left to right
-    total, f0, f1, f2 = -0.0, 0.0, 0.0, 0.0
-    for t in range(count - 2):
-        e10, e11, e12 = a[t + 1, 0] - a[0, 0], a[t + 1, 1] - a[0, 1], a[t + 1, 2] - a[0, 2]
-        e20, e21, e22 = a[t + 2, 0] - a[0, 0], a[t + 2, 1] - a[0, 1], a[t + 2, 2] - a[0, 2]
-        x0, x1, x2 = e11 * e22 - e12 * e21, e12 * e20 - e10 * e22, e10 * e21 - e11 * e20
-        area = 0.5 * math.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
-        total += area
-        f0 += area * (a[0, 0] + (e10 + e20) / 3.0)
-        f1 += area * (a[0, 1] + (e11 + e21) / 3.0)
-        f2 += area * (a[0, 2] + (e12 + e22) / 3.0)
-    safe = total if total > 0.0 else 1.0
-    items[k_item, 1], items[k_item, 2], items[k_item, 3] = f0 / safe, f1 / safe, f2 / safe
-    nA = frame[_F_NA]
-    overlap = max(face_level - ((items[k_item, 1] * nA[0] + items[k_item, 2] * nA[1]) + items[k_item, 3] * nA[2]), 0.0)
-    items[k_item, 0] = total * 0.5 * overlap  # pressure at the equal-pressure plane: half the overlap deep
-    return overlap
+def _plane_dist(x, plane):
+    """plane[:3] . x - plane[3] for a point x (3,) [m] (the clip's signed distance)."""
+    return (x[0] * plane[0] + x[2] * plane[2]) + x[1] * plane[1] - plane[3]
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _sliver(frame, planes, side_row, e0, e1, centre, own_b, face_level, facing, items, k, p, R, hA, hB, axes):
-    """The sliver along the edge e0 -> e1 (frame rows) of the face centred at frame row
-    centre, clipped by the other face's triangle (planes[side_row:side_row + 3], sides in
-    A's face plane) and to where the overlap is >= 0 (own_b: B's edge, overlap below A's
-    face plane; else A's edge, overlap above B's face, / facing = cos of the tilt).
-    Fills items[k] = (area x centroid's distance from the edge [m^3], centre (3) [m], normal
-    direction (3), unnormalised) as quadrature.face_on_face's sliver loop."""
-    nA, nB, a, b, o = frame[_F_NA], frame[_F_NB], frame[e0], frame[e1], frame[centre]
-    cB = frame[_F_CENTRE_B]
-    t0, t1 = 0.0, 1.0
-    for f in range(4):
-        if f < 3:
-            pl = planes[side_row + f]
-            s0 = (pl[0] * (a[0] - pl[4]) + pl[1] * (a[1] - pl[5])) + pl[2] * (a[2] - pl[6])
-            s1 = (pl[0] * (b[0] - pl[4]) + pl[1] * (b[1] - pl[5])) + pl[2] * (b[2] - pl[6])
-        elif own_b:
-            s0 = -(face_level - ((a[0] * nA[0] + a[2] * nA[2]) + a[1] * nA[1]))
-            s1 = -(face_level - ((b[0] * nA[0] + b[2] * nA[2]) + b[1] * nA[1]))
-        else:
-            s0 = -(((nB[0] * (cB[0] - a[0]) + nB[2] * (cB[2] - a[2])) + nB[1] * (cB[1] - a[1])) / facing)
-            s1 = -(((nB[0] * (cB[0] - b[0]) + nB[2] * (cB[2] - b[2])) + nB[1] * (cB[1] - b[1])) / facing)
-        d = s0 - s1
-        t_cross = s0 / (1.0 if d == 0.0 else d)
-        if s0 > 0.0 and s1 <= 0.0:
-            t0 = max(t0, t_cross)
-        if s0 <= 0.0 and s1 > 0.0:
-            t1 = min(t1, t_cross)
-        if s0 > 0.0 and s1 > 0.0:  # wholly outside
-            t1 = -1.0
-            break
-    if not t1 > t0:  # the edge misses the triangle: a zero item (what the full computation gives)
-        for c in range(7):
-            items[k, c] = 0.0
-        return
-    u0, u1, u2 = a[0] + t0 * (b[0] - a[0]), a[1] + t0 * (b[1] - a[1]), a[2] + t0 * (b[2] - a[2])
-    v0, v1, v2 = a[0] + t1 * (b[0] - a[0]), a[1] + t1 * (b[1] - a[1]), a[2] + t1 * (b[2] - a[2])
-    if own_b:  # the strip's width at each end [m]: half the local overlap
-        h0 = 0.5 * max(face_level - ((u0 * nA[0] + u2 * nA[2]) + u1 * nA[1]), 0.0)
-        h1 = 0.5 * max(face_level - ((v0 * nA[0] + v2 * nA[2]) + v1 * nA[1]), 0.0)
-    else:
-        h0 = 0.5 * max(((nB[0] * (cB[0] - u0) + nB[2] * (cB[2] - u2)) + nB[1] * (cB[1] - u1)) / facing, 0.0)
-        h1 = 0.5 * max(((nB[0] * (cB[0] - v0) + nB[2] * (cB[2] - v2)) + nB[1] * (cB[1] - v1)) / facing, 0.0)
-    l0, l1, l2 = v0 - u0, v1 - u1, v2 - u2
-    length = math.sqrt((l0 * l0 + l1 * l1) + l2 * l2)
-    hsum = h0 + h1 if h0 + h1 > 0.0 else 1.0
-    area = _SQRT2 * length * 0.5 * (h0 + h1)
-    y_bar = (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum)  # the strip centroid's distance from the edge
+def _side_value(planes, row, x, out, r, col):
+    """out[r, col] = planes[row, :3] . (x - planes[row, 4:7]): where x (3,) [m] lies from a
+    triangle's side in A's face plane (quadrature._side_value; <= 0 inside)."""
+    pl = planes[row]
+    out[r, col] = (pl[0] * (x[0] - pl[4]) + pl[1] * (x[1] - pl[5])) + pl[2] * (x[2] - pl[6])
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _interval(s0, s1, t0, t1):
+    """The part [t0, t1] of a segment (t in [0, 1]) where a linear function, s0 at t = 0 and
+    s1 at t = 1, is <= 0, intersected with the given [t0, t1]; t1 = -1 where s0 and s1 are
+    both > 0 (quadrature.face_on_face's sliver interval)."""
+    d = s0 - s1
+    t_cross = s0 / (1.0 if d == 0.0 else d)
+    if s0 > 0.0 and s1 <= 0.0:
+        t0 = max(t0, t_cross)
+    if s0 <= 0.0 and s1 > 0.0:
+        t1 = min(t1, t_cross)
+    if s0 > 0.0 and s1 > 0.0:
+        t1 = -1.0
+    return t0, t1
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _strip(t0, t1, h0, h1, length):
+    """A sliver strip over the edge interval [t0, t1] (length [m]) with widths h0, h1 [m]
+    at its ends: (area on the 45 deg surface [m^2], the strip centroid's distance from the
+    edge [m], the edge parameter of the strip's centre)."""
+    hs = h0 + h1
+    hsum = hs if hs > 0.0 else 1.0
+    area = _SQRT2 * length * 0.5 * hs
+    y_bar = (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum)
     along = (h0 + 2.0 * h1) / (3.0 * hsum)
-    xc0, xc1, xc2 = u0 + along * l0, u1 + along * l1, u2 + along * l2  # the strip's centre on the edge
-    # inward: in A's face plane, perpendicular to the edge, towards the face's centre
-    w0, w1, w2 = o[0] - xc0, o[1] - xc1, o[2] - xc2
-    s = (w0 * nA[0] + w2 * nA[2]) + w1 * nA[1]
-    w0, w1, w2 = w0 - s * nA[0], w1 - s * nA[1], w2 - s * nA[2]
-    g0, g1, g2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    g = max(math.sqrt((g0 * g0 + g1 * g1) + g2 * g2), 1e-12)
-    g0, g1, g2 = g0 / g, g1 / g, g2 / g
-    s = (w0 * g0 + w1 * g1) + w2 * g2
-    w0, w1, w2 = w0 - s * g0, w1 - s * g1, w2 - s * g2
-    g = max(math.sqrt((w0 * w0 + w1 * w1) + w2 * w2), 1e-12)
-    w0, w1, w2 = w0 / g, w1 / g, w2 / g
-    # the fade where this edge runs within one overlap of the other face's edge (quadrature.face_on_face)
-    uA, vA, uB, vB = axes[0], axes[1], axes[2], axes[3]
-    if own_b:  # how far inside A's face rectangle, and the overlap there
-        xu = xc0 if uA == 0 else (xc1 if uA == 1 else xc2)
-        xv = xc0 if vA == 0 else (xc1 if vA == 1 else xc2)
-        inside = min(hA[uA] - abs(xu), hA[vA] - abs(xv))
-        o_c = max(face_level - ((xc0 * nA[0] + xc2 * nA[2]) + xc1 * nA[1]), 0.0)
-    else:  # how far inside B's face rectangle (in B's frame)
-        d0, d1, d2 = xc0 - p[0], xc1 - p[1], xc2 - p[2]
-        qu = (R[0, uB] * d0 + R[1, uB] * d1) + R[2, uB] * d2
-        qv = (R[0, vB] * d0 + R[1, vB] * d1) + R[2, vB] * d2
-        inside = min(hB[uB] - abs(qu), hB[vB] - abs(qv))
-        o_c = max(((nB[0] * (cB[0] - xc0) + nB[2] * (cB[2] - xc2)) + nB[1] * (cB[1] - xc1)) / facing, 0.0)
-    u = min(max(inside / (o_c if o_c > 0.0 else 1.0), 0.0), 1.0)
-    items[k, 0] = area * y_bar * (u * u * (3.0 - 2.0 * u))
-    items[k, 1], items[k, 2], items[k, 3] = xc0 + y_bar * w0, xc1 + y_bar * w1, xc2 + y_bar * w2
-    if own_b:  # B's side face's inward normal lies in B's face plane
-        s = (w0 * nB[0] + w2 * nB[2]) + w1 * nB[1]
-        z0, z1, z2 = w0 - s * nB[0], w1 - s * nB[1], w2 - s * nB[2]
-        g = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-12)
-        items[k, 4], items[k, 5], items[k, 6] = nA[0] + z0 / g, nA[1] + z1 / g, nA[2] + z2 / g
-    else:
-        items[k, 4], items[k, 5], items[k, 6] = -w0 - nB[0], -w1 - nB[1], -w2 - nB[2]
+    return area, y_bar, t0 + along * (t1 - t0)
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _fade(inside, overlap):
+    """The sliver's fade (quadrature.face_on_face): a smoothstep of how far [m] its centre lies
+    inside the other face's rectangle, in units of the overlap there [m]."""
+    u = min(max(inside / (overlap if overlap > 0.0 else 1.0), 0.0), 1.0)
+    return u * u * (3.0 - 2.0 * u)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -344,6 +249,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     overlap; tilt [rad] between the two faces)."""
     a, sigma_A, m, s_B = _faces(R, n)
     uA, vA, uB, vB = (a + 1) % 3, (a + 2) % 3, (m + 1) % 3, (m + 2) % 3
+    U, V, L = hA[uA], hA[vA], hA[a]  # A's face: |u| <= U, |v| <= V at height L
     top, cB, nA, nB = frame[_F_TOP], frame[_F_CENTRE_B], frame[_F_NA], frame[_F_NB]
     h_top, h_bottom = sigma_A * hA[a], s_B * hB[m]
     for c in range(3):
@@ -356,61 +262,195 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         for c in range(3):
             frame[_F_CA + k, c] = top[c] + (fu * hA[uA] * (1.0 if c == uA else 0.0) + fv * hA[vA] * (1.0 if c == vA else 0.0))
             frame[_F_CB + k, c] = cB[c] + (fu * hB[uB] * R[c, uB] + fv * hB[vB] * R[c, vB])
-    face_level = hA[a]  # A's face along nA
     for i in range(4):
         _side_planes(frame, _F_TOP, _F_CA + i, _F_CA + (i + 1) % 4, planes, _P_SIDE_A + 3 * i)
         _side_planes(frame, _F_CENTRE_B, _F_CB + i, _F_CB + (i + 1) % 4, planes, _P_SIDE_B + 3 * i)
-        _edge_plane(frame, _F_CB + i, _F_CB + (i + 1) % 4, _F_CENTRE_B, face_level, planes[_P_EDGE_B + i])
-        _edge_plane(frame, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, face_level, planes[_P_EDGE_A + i])
-    # the 16 polygons (A's triangle i, B's triangle j); their overlap at the centroid in column 4
+        _edge_plane(frame, _F_CB + i, _F_CB + (i + 1) % 4, _F_CENTRE_B, L, planes[_P_EDGE_B + i])
+        _edge_plane(frame, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, L, planes[_P_EDGE_A + i])
+    # each side plane's value (quadrature._side_value) at the other face's fan corners (and B's centre)
+    for k in range(12):
+        for r in range(5):
+            _side_value(planes, _P_SIDE_A + k, frame[_F_CENTRE_B if r == 0 else _F_CB + r - 1], items, _V_SIDE_A + r, k)
+        for r in range(4):
+            _side_value(planes, _P_SIDE_B + k, frame[_F_CA + r], items, _V_SIDE_B + r, k)
+    # face coordinates (x[uA], x[vA], sigma_A x[a]) of B's face centre, face normal, axes u
+    # and v and fan corners
+    p0, p1, p2 = p[uA], p[vA], sigma_A * p[a]
+    o0, o1, o2 = cB[uA], cB[vA], sigma_A * cB[a]
+    nB0, nB1, nB2 = nB[uA], nB[vA], sigma_A * nB[a]
+    bu0, bu1, bu2 = R[uA, uB], R[vA, uB], sigma_A * R[a, uB]
+    bv0, bv1, bv2 = R[uA, vB], R[vA, vB], sigma_A * R[a, vB]
+    for k in range(4):
+        frame[_F_LOCAL_B + k, 0] = frame[_F_CB + k, uA]
+        frame[_F_LOCAL_B + k, 1] = frame[_F_CB + k, vA]
+        frame[_F_LOCAL_B + k, 2] = sigma_A * frame[_F_CB + k, a]
+    weight, w_poly, depth_sum, sum_u, sum_v = 0.0, 0.0, 0.0, 0.0, 0.0
+    # the 16 polygons (A's triangle i, B's triangle j), clipped in quadrature.face_on_face's
+    # order; a pair whose triangles lie apart (a side of A's triangle has B's triangle wholly
+    # outside) or whose B triangle lies wholly above A's face or outside its own edge clip is
+    # skipped, and a clip that keeps every vertex copies none
+    for j in range(4):
+        jn = (j + 1) % 4
+        if o2 > L and frame[_F_LOCAL_B + j, 2] > L and frame[_F_LOCAL_B + jn, 2] > L:
+            continue
+        eb = planes[_P_EDGE_B + j]
+        if (_plane_dist(cB, eb) > 0.0 and _plane_dist(frame[_F_CB + j], eb) > 0.0
+                and _plane_dist(frame[_F_CB + jn], eb) > 0.0):
+            continue
+        for i in range(4):
+            apart = False
+            for k in range(3):
+                col = 3 * i + k
+                apart |= (items[_V_SIDE_A, col] > 0.0 and items[_V_SIDE_A + 1 + j, col] > 0.0
+                          and items[_V_SIDE_A + 1 + jn, col] > 0.0)
+            if apart:
+                continue
+            for c in range(3):
+                poly[0, 0, c], poly[0, 1, c], poly[0, 2, c] = cB[c], frame[_F_CB + j, c], frame[_F_CB + jn, c]
+            count, src = 3, 0
+            for k in range(6):  # A's triangle's 3 sides, A's face plane, the edge clips of B's edge j and A's edge i
+                if count == 0:  # nothing left (a polygon of 1 or 2 vertices can still grow a degenerate third)
+                    break
+                row = _P_SIDE_A + 3 * i + k if k < 3 else (_P_EDGE_B + j if k == 4 else _P_EDGE_A + i)
+                if k == 3:
+                    count, src = _clip(poly, src, count, nA[0], nA[1], nA[2], L, items)
+                else:
+                    count, src = _clip(poly, src, count, planes[row, 0], planes[row, 1], planes[row, 2], planes[row, 3],
+                                       items)
+            if count < 3:
+                continue
+            # quadrature._area_centroid: fan from the first vertex, areas summed left to right
+            total, f0, f1, f2 = -0.0, 0.0, 0.0, 0.0
+            for t in range(count - 2):
+                e10, e11, e12 = poly[src, t + 1, 0] - poly[src, 0, 0], poly[src, t + 1, 1] - poly[src, 0, 1], poly[src, t + 1, 2] - poly[src, 0, 2]
+                e20, e21, e22 = poly[src, t + 2, 0] - poly[src, 0, 0], poly[src, t + 2, 1] - poly[src, 0, 1], poly[src, t + 2, 2] - poly[src, 0, 2]
+                x0, x1, x2 = e11 * e22 - e12 * e21, e12 * e20 - e10 * e22, e10 * e21 - e11 * e20
+                area = 0.5 * math.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
+                total += area
+                f0 += area * (poly[src, 0, 0] + (e10 + e20) / 3.0)
+                f1 += area * (poly[src, 0, 1] + (e11 + e21) / 3.0)
+                f2 += area * (poly[src, 0, 2] + (e12 + e22) / 3.0)
+            if not total > 0.0:
+                continue
+            c0, c1, c2 = f0 / total, f1 / total, f2 / total
+            overlap = max(L - ((c0 * nA[0] + c1 * nA[1]) + c2 * nA[2]), 0.0)
+            w = total * 0.5 * overlap  # pressure at the equal-pressure plane: half the overlap deep
+            weight += w
+            w_poly += w
+            depth_sum += w * overlap
+            sum_u += w * (c0 if uA == 0 else (c1 if uA == 1 else c2))
+            sum_v += w * (c0 if vA == 0 else (c1 if vA == 1 else c2))
+    facing = max(-nB2, 1e-6)  # cos of the tilt
+    sum_n0, sum_n1, sum_n2 = 0.0, 0.0, 0.0
+    # B's slivers: B's edge j, inside the overlap (below A's face), clipped by A's triangle i
+    for j in range(4):
+        jn = (j + 1) % 4
+        ra, rb = _F_LOCAL_B + j, _F_LOCAL_B + jn
+        a0, a1, a2 = frame[ra, 0], frame[ra, 1], frame[ra, 2]
+        g0, g1, g2 = frame[rb, 0] - a0, frame[rb, 1] - a1, frame[rb, 2] - a2
+        e_t0, e_t1 = _interval(-(L - a2), -(L - frame[rb, 2]), 0.0, 1.0)
+        if not e_t1 > e_t0:
+            continue
+        g_len = math.sqrt((g0 * g0 + g1 * g1) + g2 * g2)
+        inv = 1.0 / max(g_len, 1e-12)
+        e0, e1, e2 = g0 * inv, g1 * inv, g2 * inv
+        # the inward direction at edge parameter t: (D - t G) with the components along
+        # A's face normal and then along the edge removed (quadrature.face_on_face)
+        dd0, dd1 = o0 - a0, o1 - a1
+        s = dd0 * e0 + dd1 * e1
+        D0, D1, D2 = dd0 - s * e0, dd1 - s * e1, -s * e2
+        s = g0 * e0 + g1 * e1
+        G0, G1, G2 = g0 - s * e0, g1 - s * e1, -s * e2
+        # ... and B's side face's inward normal: the same in B's face plane
+        s = (D0 * nB0 + D1 * nB1) + D2 * nB2
+        Q0, Q1, Q2 = D0 - s * nB0, D1 - s * nB1, D2 - s * nB2
+        s = (G0 * nB0 + G1 * nB1) + G2 * nB2
+        H0, H1, H2 = G0 - s * nB0, G1 - s * nB1, G2 - s * nB2
+        for i in range(4):
+            t0, t1 = e_t0, e_t1
+            for k in range(3):
+                col = 3 * i + k
+                t0, t1 = _interval(items[_V_SIDE_A + 1 + j, col], items[_V_SIDE_A + 1 + jn, col], t0, t1)
+            if not t1 > t0:
+                continue
+            h0 = 0.5 * max(L - (a2 + t0 * g2), 0.0)  # the strip's width at each end [m]: half the overlap
+            h1 = 0.5 * max(L - (a2 + t1 * g2), 0.0)
+            area, y_bar, t_c = _strip(t0, t1, h0, h1, (t1 - t0) * g_len)
+            x0, x1, x2 = a0 + t_c * g0, a1 + t_c * g1, a2 + t_c * g2
+            w = area * y_bar * _fade(min(U - abs(x0), V - abs(x1)), max(L - x2, 0.0))
+            if not w > 0.0:
+                continue
+            d0, d1, d2 = D0 - t_c * G0, D1 - t_c * G1, D2 - t_c * G2
+            d = max(math.sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-12)
+            weight += w
+            sum_u += w * (x0 + y_bar * (d0 / d))
+            sum_v += w * (x1 + y_bar * (d1 / d))
+            z0, z1, z2 = Q0 - t_c * H0, Q1 - t_c * H1, Q2 - t_c * H2
+            d = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-12)
+            z0, z1, z2 = z0 / d, z1 / d, 1.0 + z2 / d  # A's face normal + B's side face's
+            d = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-300)
+            sum_n0 += w * (z0 / d)
+            sum_n1 += w * (z1 / d)
+            sum_n2 += w * (z2 / d)
+    # A's slivers: A's edge i, inside the overlap (above B's face), clipped by B's triangle j
     for i in range(4):
+        ou, ov = _OUT_U[i], _OUT_V[i]
+        a0, a1 = _FAN_U[i] * U, _FAN_V[i] * V
+        b0, b1 = _FAN_U[(i + 1) % 4] * U, _FAN_V[(i + 1) % 4] * V
+        g0, g1 = b0 - a0, b1 - a1
+        dep_a = ((nB0 * (o0 - a0) + nB2 * (o2 - L)) + nB1 * (o1 - a1)) / facing
+        dep_b = ((nB0 * (o0 - b0) + nB2 * (o2 - L)) + nB1 * (o1 - b1)) / facing
+        e_t0, e_t1 = _interval(-dep_a, -dep_b, 0.0, 1.0)
+        if not e_t1 > e_t0:
+            continue
+        g_len = abs(g0) + abs(g1)  # along u or v
+        # the strip's normal: A's side face's inward normal (-(ou, ov, 0)), negated, less B's face normal
+        m0, m1, m2 = ou - nB0, ov - nB1, -nB2
+        d = max(math.sqrt((m0 * m0 + m1 * m1) + m2 * m2), 1e-300)
+        m0, m1, m2 = m0 / d, m1 / d, m2 / d
         for j in range(4):
-            k = _I_POLY + 4 * i + j
-            items[k, 4] = _polygon(frame, planes, i, j, face_level, poly, items, k)
-    main = frame[_F_MAIN]
-    for c in range(3):
-        main[c] = nA[c] - nB[c]
-    length = _norm(main)
-    for c in range(3):
-        main[c] = main[c] / length
-    facing = max(-((nB[0] * nA[0] + nB[1] * nA[1]) + nB[2] * nA[2]), 1e-6)  # cos of the tilt
-    for i in range(4):
-        for j in range(4):
-            _sliver(frame, planes, _P_SIDE_A + 3 * i, _F_CB + j, _F_CB + (j + 1) % 4, _F_CENTRE_B, True,
-                    face_level, facing, items, _I_SLIVER_B + 4 * i + j, p, R, hA, hB, (uA, vA, uB, vB))
-            _sliver(frame, planes, _P_SIDE_B + 3 * j, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, False,
-                    face_level, facing, items, _I_SLIVER_A + 4 * i + j, p, R, hA, hB, (uA, vA, uB, vB))
-    # the weighted means (numpy's orders: pairwise for the weight sums, left to right otherwise)
-    weight = _pairwise(items, 0, 0, 48)
+            t0, t1 = e_t0, e_t1
+            for k in range(3):
+                col = 3 * j + k
+                t0, t1 = _interval(items[_V_SIDE_B + i, col], items[_V_SIDE_B + (i + 1) % 4, col], t0, t1)
+            if not t1 > t0:
+                continue
+            x0, x1 = a0 + t0 * g0, a1 + t0 * g1
+            h0 = 0.5 * max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
+            x0, x1 = a0 + t1 * g0, a1 + t1 * g1
+            h1 = 0.5 * max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
+            area, y_bar, t_c = _strip(t0, t1, h0, h1, (t1 - t0) * g_len)
+            x0, x1 = a0 + t_c * g0, a1 + t_c * g1
+            q0, q1, q2 = x0 - p0, x1 - p1, L - p2  # how far inside B's face rectangle (in B's frame)
+            qu = (bu0 * q0 + bu1 * q1) + bu2 * q2
+            qv = (bv0 * q0 + bv1 * q1) + bv2 * q2
+            o_c = max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
+            w = area * y_bar * _fade(min(hB[uB] - abs(qu), hB[vB] - abs(qv)), o_c)
+            if not w > 0.0:
+                continue
+            weight += w
+            sum_u += w * (x0 - y_bar * ou)
+            sum_v += w * (x1 - y_bar * ov)
+            sum_n0 += w * m0
+            sum_n1 += w * m1
+            sum_n2 += w * m2
+    # the weighted means: the point on the equal-pressure plane, half the mean overlap
+    # below A's face; the polygons' normal is the bisector of the two face normals
+    main0, main1, main2 = sigma_A * (1.0 if a == 0 else 0.0), sigma_A * (1.0 if a == 1 else 0.0), sigma_A * (1.0 if a == 2 else 0.0)
+    main0, main1, main2 = main0 - s_B * R[0, m], main1 - s_B * R[1, m], main2 - s_B * R[2, m]
+    length = math.sqrt((main0 * main0 + main1 * main1) + main2 * main2)
+    main = (main0 / length, main1 / length, main2 / length)
     safe = weight if weight > 0.0 else 1.0
-    for c in range(3):
-        s = 0.0
-        for k in range(48):
-            s += items[k, 0] * items[k, 1 + c]
-        point[c] = s / safe
-    w_poly = _pairwise(items, 0, 0, 16)
-    depth_at = 0.0
-    for k in range(16):
-        depth_at += items[k, 0] * items[k, 4]
-    depth_at = depth_at / (w_poly if w_poly > 0.0 else 1.0)
-    along_nA = (point[0] * nA[0] + point[1] * nA[1]) + point[2] * nA[2]
-    level = face_level - 0.5 * depth_at
-    for c in range(3):
-        point[c] = (point[c] - along_nA * nA[c]) + level * nA[c]
-    for k in range(16, 48):  # unit sliver normals (a zero one stays 0, as in the numpy path)
-        length = max(_norm(items[k, 4:7]), 1e-300)
-        for c in range(3):
-            items[k, 4 + c] = items[k, 4 + c] / length
-    for c in range(3):
-        s_main, s_B, s_A = 0.0, 0.0, 0.0
-        for k in range(16):
-            s_main += items[k, 0] * main[c]
-            s_B += items[_I_SLIVER_B + k, 0] * items[_I_SLIVER_B + k, 4 + c]
-            s_A += items[_I_SLIVER_A + k, 0] * items[_I_SLIVER_A + k, 4 + c]
-        normal[c] = s_main + (s_B + s_A)
-    length = max(_norm(normal), 1e-300)
-    for c in range(3):
-        normal[c] = normal[c] / length if weight > 0.0 else main[c]
+    depth_at = depth_sum / (w_poly if w_poly > 0.0 else 1.0)
+    point[uA], point[vA], point[a] = sum_u / safe, sum_v / safe, sigma_A * (L - 0.5 * depth_at)
+    n0 = w_poly * main[uA] + sum_n0
+    n1 = w_poly * main[vA] + sum_n1
+    n2 = w_poly * (sigma_A * main[a]) + sum_n2
+    length = max(math.sqrt((n0 * n0 + n1 * n1) + n2 * n2), 1e-300)
+    if weight > 0.0:
+        normal[uA], normal[vA], normal[a] = n0 / length, n1 / length, sigma_A * (n2 / length)
+    else:
+        normal[0], normal[1], normal[2] = main
     tilt = math.acos(min(max(abs(R[a, m]), 0.0), 1.0))
     return weight, tilt
 
