@@ -41,7 +41,7 @@ QUAD_VERTS = 9  # a triangle clipped by 6 half-planes keeps at most 9 vertices (
 # scratch rows (`face_on_face_scratch`): frame (17, 3): A's fan corners (0-3), B's fan corners
 # (4-7), A's face centre (8), B's face centre (9), A's face normal (10), B's face normal
 # towards A (11) [m, or unit] in A, B's fan corners in face coordinates (13-16); planes (32, 7):
-# (normal (3), limit, a point (3)) of A's triangles' sides (i * 3 + k, 0-11), B's triangles'
+# (normal (3), limit, a point (its two in-plane coordinates)) of A's triangles' sides (i * 3 + k, 0-11), B's triangles'
 # sides in A's face plane (12 + j * 3 + k), the edge clips of B's edges (24 + j) and of A's
 # edges (28 + i); items (10, 12): the current clip's signed distance per vertex (row 0), the
 # values of A's 12 sides at B's face centre and fan corners (rows 1-5) and of B's 12 sides at
@@ -116,60 +116,58 @@ def _clip(poly, src, count, n0, n1, n2, limit, items):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _side_planes(frame, tri0, tri1, tri2, planes, row):
+def _side_planes(frame, tri0, tri1, tri2, planes, row, uA, vA, sigma_A):
     """The three sides of the triangle (frame rows tri0, tri1, tri2) as planes
     perpendicular to A's face (quadrature.face_on_face's triangle clips and _side_value):
-    planes[row + k] = (outward normal in A's face plane, normal . p0, p0) of side k
-    (p0 -> p1), outward = away from the opposite vertex."""
-    nA = frame[_F_NA]
+    planes[row + k] = (outward normal (3), normal . p0, p0's in-plane coordinates (2)) of
+    side k (p0 -> p1), outward = away from the opposite vertex. The normal is the numpy
+    path's cross product with A's face normal sigma_A e_a: its component along e_a is 0
+    and the in-plane ones (axes uA, vA) are the same values computed alone."""
     rows = (tri0, tri1, tri2)
+    a = 3 - uA - vA
     for k in range(3):
-        p0, p1, opp = frame[rows[k]], frame[rows[(k + 1) % 3]], frame[rows[(k + 2) % 3]]
-        d0, d1, d2 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
-        o0, o1, o2 = d1 * nA[2] - d2 * nA[1], d2 * nA[0] - d0 * nA[2], d0 * nA[1] - d1 * nA[0]  # np.cross
-        toward = (o0 * (opp[0] - p0[0]) + o1 * (opp[1] - p0[1])) + o2 * (opp[2] - p0[2])
+        r0, r1, ro = rows[k], rows[(k + 1) % 3], rows[(k + 2) % 3]
+        ou, ov = sigma_A * (frame[r1, vA] - frame[r0, vA]), -(sigma_A * (frame[r1, uA] - frame[r0, uA]))
+        toward = ou * (frame[ro, uA] - frame[r0, uA]) + ov * (frame[ro, vA] - frame[r0, vA])
         flip = -1.0 if toward > 0.0 else 1.0
-        pl = planes[row + k]
-        pl[0], pl[1], pl[2] = o0 * flip, o1 * flip, o2 * flip
-        pl[3] = (pl[0] * p0[0] + pl[1] * p0[1]) + pl[2] * p0[2]
-        pl[4], pl[5], pl[6] = p0[0], p0[1], p0[2]
+        r = row + k
+        planes[r, uA], planes[r, vA], planes[r, a] = ou * flip, ov * flip, 0.0
+        planes[r, 3] = planes[r, uA] * frame[r0, uA] + planes[r, vA] * frame[r0, vA]
+        planes[r, 4], planes[r, 5] = frame[r0, uA], frame[r0, vA]
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _edge_plane(frame, e0, e1, centre, face_level, plane):
+def _edge_plane(frame, e0, e1, centre, face_level, planes, row, uA, vA, sigma_A):
     """The clip that keeps a face's own part near its outer edge e0 -> e1 (frame rows) of
-    the face centred at frame row centre (quadrature.face_on_face with _inward): plane =
-    (g, c) with g = -(nA / 2 + w_in), c = -(face_level / 2 + w_in . e0), w_in the unit
-    inward perpendicular to the edge in A's face plane."""
-    nA, a, b, o = frame[_F_NA], frame[e0], frame[e1], frame[centre]
-    d0, d1, d2 = o[0] - a[0], o[1] - a[1], o[2] - a[2]
-    s = (d0 * nA[0] + d2 * nA[2]) + d1 * nA[1]
-    d0, d1, d2 = d0 - s * nA[0], d1 - s * nA[1], d2 - s * nA[2]
-    g0, g1, g2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    s = (g0 * nA[0] + g2 * nA[2]) + g1 * nA[1]
-    g0, g1, g2 = g0 - s * nA[0], g1 - s * nA[1], g2 - s * nA[2]
-    length = max(math.sqrt((g0 * g0 + g1 * g1) + g2 * g2), 1e-12)
-    g0, g1, g2 = g0 / length, g1 / length, g2 / length
-    s = (d0 * g0 + d1 * g1) + d2 * g2
-    d0, d1, d2 = d0 - s * g0, d1 - s * g1, d2 - s * g2
-    length = max(math.sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-12)
-    w0, w1, w2 = d0 / length, d1 / length, d2 / length
-    plane[0], plane[1], plane[2] = -(0.5 * nA[0] + w0), -(0.5 * nA[1] + w1), -(0.5 * nA[2] + w2)
-    plane[3] = -(0.5 * face_level + ((w0 * a[0] + w1 * a[1]) + w2 * a[2]))
+    the face centred at frame row centre (quadrature.face_on_face with _inward):
+    planes[row, :4] = (g, c) with g = -(nA / 2 + w_in), c = -(face_level / 2 + w_in . e0),
+    w_in the unit inward perpendicular to the edge in A's face plane (from the in-plane
+    components alone: the numpy path's values)."""
+    a = 3 - uA - vA
+    du, dv = frame[centre, uA] - frame[e0, uA], frame[centre, vA] - frame[e0, vA]
+    gu, gv = frame[e1, uA] - frame[e0, uA], frame[e1, vA] - frame[e0, vA]
+    length = max(math.sqrt(gu * gu + gv * gv), 1e-12)
+    gu, gv = gu / length, gv / length
+    s = du * gu + dv * gv
+    du, dv = du - s * gu, dv - s * gv
+    length = max(math.sqrt(du * du + dv * dv), 1e-12)
+    wu, wv = du / length, dv / length
+    planes[row, uA], planes[row, vA], planes[row, a] = -wu, -wv, -(0.5 * sigma_A)
+    planes[row, 3] = -(0.5 * face_level + (wu * frame[e0, uA] + wv * frame[e0, vA]))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _plane_dist(x, plane):
-    """plane[:3] . x - plane[3] for a point x (3,) [m] (the clip's signed distance)."""
-    return (x[0] * plane[0] + x[2] * plane[2]) + x[1] * plane[1] - plane[3]
+def _plane_dist(frame, r, planes, row):
+    """planes[row, :3] . frame[r] - planes[row, 3] [m]: a point's signed distance as the clip
+    computes it."""
+    return (frame[r, 0] * planes[row, 0] + frame[r, 2] * planes[row, 2]) + frame[r, 1] * planes[row, 1] - planes[row, 3]
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _side_value(planes, row, x, out, r, col):
-    """out[r, col] = planes[row, :3] . (x - planes[row, 4:7]): where x (3,) [m] lies from a
-    triangle's side in A's face plane (quadrature._side_value; <= 0 inside)."""
-    pl = planes[row]
-    out[r, col] = (pl[0] * (x[0] - pl[4]) + pl[1] * (x[1] - pl[5])) + pl[2] * (x[2] - pl[6])
+def _side_value(planes, row, frame, r, uA, vA):
+    """Where the point frame[r] [m] lies from the triangle side planes[row]
+    (quadrature._side_value; <= 0 inside), from the in-plane components."""
+    return planes[row, uA] * (frame[r, uA] - planes[row, 4]) + planes[row, vA] * (frame[r, vA] - planes[row, 5])
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -263,16 +261,16 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             frame[_F_CA + k, c] = top[c] + (fu * hA[uA] * (1.0 if c == uA else 0.0) + fv * hA[vA] * (1.0 if c == vA else 0.0))
             frame[_F_CB + k, c] = cB[c] + (fu * hB[uB] * R[c, uB] + fv * hB[vB] * R[c, vB])
     for i in range(4):
-        _side_planes(frame, _F_TOP, _F_CA + i, _F_CA + (i + 1) % 4, planes, _P_SIDE_A + 3 * i)
-        _side_planes(frame, _F_CENTRE_B, _F_CB + i, _F_CB + (i + 1) % 4, planes, _P_SIDE_B + 3 * i)
-        _edge_plane(frame, _F_CB + i, _F_CB + (i + 1) % 4, _F_CENTRE_B, L, planes[_P_EDGE_B + i])
-        _edge_plane(frame, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, L, planes[_P_EDGE_A + i])
-    # each side plane's value (quadrature._side_value) at the other face's fan corners (and B's centre)
+        _side_planes(frame, _F_TOP, _F_CA + i, _F_CA + (i + 1) % 4, planes, _P_SIDE_A + 3 * i, uA, vA, sigma_A)
+        _side_planes(frame, _F_CENTRE_B, _F_CB + i, _F_CB + (i + 1) % 4, planes, _P_SIDE_B + 3 * i, uA, vA, sigma_A)
+        _edge_plane(frame, _F_CB + i, _F_CB + (i + 1) % 4, _F_CENTRE_B, L, planes, _P_EDGE_B + i, uA, vA, sigma_A)
+        _edge_plane(frame, _F_CA + i, _F_CA + (i + 1) % 4, _F_TOP, L, planes, _P_EDGE_A + i, uA, vA, sigma_A)
+    # each side's value (quadrature._side_value) at the other face's fan corners (and B's centre)
     for k in range(12):
-        for r in range(5):
-            _side_value(planes, _P_SIDE_A + k, frame[_F_CENTRE_B if r == 0 else _F_CB + r - 1], items, _V_SIDE_A + r, k)
+        items[_V_SIDE_A, k] = _side_value(planes, _P_SIDE_A + k, frame, _F_CENTRE_B, uA, vA)
         for r in range(4):
-            _side_value(planes, _P_SIDE_B + k, frame[_F_CA + r], items, _V_SIDE_B + r, k)
+            items[_V_SIDE_A + 1 + r, k] = _side_value(planes, _P_SIDE_A + k, frame, _F_CB + r, uA, vA)
+            items[_V_SIDE_B + r, k] = _side_value(planes, _P_SIDE_B + k, frame, _F_CA + r, uA, vA)
     # face coordinates (x[uA], x[vA], sigma_A x[a]) of B's face centre, face normal, axes u
     # and v and fan corners
     p0, p1, p2 = p[uA], p[vA], sigma_A * p[a]
@@ -293,9 +291,9 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         jn = (j + 1) % 4
         if o2 > L and frame[_F_LOCAL_B + j, 2] > L and frame[_F_LOCAL_B + jn, 2] > L:
             continue
-        eb = planes[_P_EDGE_B + j]
-        if (_plane_dist(cB, eb) > 0.0 and _plane_dist(frame[_F_CB + j], eb) > 0.0
-                and _plane_dist(frame[_F_CB + jn], eb) > 0.0):
+        eb = _P_EDGE_B + j
+        if (_plane_dist(frame, _F_CENTRE_B, planes, eb) > 0.0 and _plane_dist(frame, _F_CB + j, planes, eb) > 0.0
+                and _plane_dist(frame, _F_CB + jn, planes, eb) > 0.0):
             continue
         for i in range(4):
             apart = False
@@ -311,12 +309,12 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             for k in range(6):  # A's triangle's 3 sides, A's face plane, the edge clips of B's edge j and A's edge i
                 if count == 0:  # nothing left (a polygon of 1 or 2 vertices can still grow a degenerate third)
                     break
-                row = _P_SIDE_A + 3 * i + k if k < 3 else (_P_EDGE_B + j if k == 4 else _P_EDGE_A + i)
                 if k == 3:
-                    count, src = _clip(poly, src, count, nA[0], nA[1], nA[2], L, items)
+                    n0, n1, n2, limit = nA[0], nA[1], nA[2], L
                 else:
-                    count, src = _clip(poly, src, count, planes[row, 0], planes[row, 1], planes[row, 2], planes[row, 3],
-                                       items)
+                    row = _P_SIDE_A + 3 * i + k if k < 3 else (_P_EDGE_B + j if k == 4 else _P_EDGE_A + i)
+                    n0, n1, n2, limit = planes[row, 0], planes[row, 1], planes[row, 2], planes[row, 3]
+                count, src = _clip(poly, src, count, n0, n1, n2, limit, items)
             if count < 3:
                 continue
             # quadrature._area_centroid: fan from the first vertex, areas summed left to right
