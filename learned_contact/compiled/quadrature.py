@@ -187,16 +187,46 @@ def _interval(s0, s1, t0, t1):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _strip(t0, t1, h0, h1, length):
-    """A sliver strip over the edge interval [t0, t1] (length [m]) with widths h0, h1 [m]
-    at its ends: (area on the 45 deg surface [m^2], the strip centroid's distance from the
-    edge [m], the edge parameter of the strip's centre)."""
+def _strip(h0, h1, length):
+    """A sliver strip over an edge interval length [m] long, h0, h1 [m] wide at its ends:
+    (area on the 45 deg surface [m^2], the strip centroid's distance from the edge [m],
+    the strip centre's place along the interval (0 at its start, 1 at its end))."""
     hs = h0 + h1
     hsum = hs if hs > 0.0 else 1.0
-    area = _SQRT2 * length * 0.5 * hs
-    y_bar = (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum)
-    along = (h0 + 2.0 * h1) / (3.0 * hsum)
-    return area, y_bar, t0 + along * (t1 - t0)
+    return (_SQRT2 * length * 0.5 * hs, (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum),
+            (h0 + 2.0 * h1) / (3.0 * hsum))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _sum_sq(xu, xv, xz, a):
+    """|x|^2 of x given in face coordinates (xu, xv, xz) when A's face axis is a, summed in
+    the numpy path's order over A's axes (np.linalg.norm: left to right)."""
+    if a == 0:
+        return (xz * xz + xu * xu) + xv * xv
+    if a == 1:
+        return (xv * xv + xz * xz) + xu * xu
+    return (xu * xu + xv * xv) + xz * xz
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _dot_lr(xu, xv, xz, yu, yv, yz, a):
+    """x . y of two vectors in face coordinates, summed left to right over A's axes."""
+    if a == 0:
+        return (xz * yz + xu * yu) + xv * yv
+    if a == 1:
+        return (xv * yv + xz * yz) + xu * yu
+    return (xu * yu + xv * yv) + xz * yz
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _dot_c(xu, xv, xz, yu, yv, yz, a):
+    """x . y of two vectors in face coordinates, summed over A's axes in the order of the
+    numpy path's einsum on contiguous operands: (x0 y0 + x2 y2) + x1 y1."""
+    if a == 0:
+        return (xz * yz + xv * yv) + xu * yu
+    if a == 1:
+        return (xv * yv + xu * yu) + xz * yz
+    return (xu * yu + xz * yz) + xv * yv
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -307,7 +337,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 poly[0, 0, c], poly[0, 1, c], poly[0, 2, c] = cB[c], frame[_F_CB + j, c], frame[_F_CB + jn, c]
             count, src = 3, 0
             for k in range(6):  # A's triangle's 3 sides, A's face plane, the edge clips of B's edge j and A's edge i
-                if count == 0:  # nothing left (a polygon of 1 or 2 vertices can still grow a degenerate third)
+                if count < 3:  # no area left (what a polygon of 1 or 2 vertices can still grow is degenerate)
                     break
                 if k == 3:
                     n0, n1, n2, limit = nA[0], nA[1], nA[2], L
@@ -349,21 +379,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         e_t0, e_t1 = _interval(-(L - a2), -(L - frame[rb, 2]), 0.0, 1.0)
         if not e_t1 > e_t0:
             continue
-        g_len = math.sqrt((g0 * g0 + g1 * g1) + g2 * g2)
-        inv = 1.0 / max(g_len, 1e-12)
-        e0, e1, e2 = g0 * inv, g1 * inv, g2 * inv
-        # the inward direction at edge parameter t: (D - t G) with the components along
-        # A's face normal and then along the edge removed (quadrature.face_on_face)
-        dd0, dd1 = o0 - a0, o1 - a1
-        s = dd0 * e0 + dd1 * e1
-        D0, D1, D2 = dd0 - s * e0, dd1 - s * e1, -s * e2
-        s = g0 * e0 + g1 * e1
-        G0, G1, G2 = g0 - s * e0, g1 - s * e1, -s * e2
-        # ... and B's side face's inward normal: the same in B's face plane
-        s = (D0 * nB0 + D1 * nB1) + D2 * nB2
-        Q0, Q1, Q2 = D0 - s * nB0, D1 - s * nB1, D2 - s * nB2
-        s = (G0 * nB0 + G1 * nB1) + G2 * nB2
-        H0, H1, H2 = G0 - s * nB0, G1 - s * nB1, G2 - s * nB2
+        g_len = max(math.sqrt(_sum_sq(g0, g1, g2, a)), 1e-12)
+        e0, e1, e2 = g0 / g_len, g1 / g_len, g2 / g_len
         for i in range(4):
             t0, t1 = e_t0, e_t1
             for k in range(3):
@@ -371,38 +388,44 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 t0, t1 = _interval(items[_V_SIDE_A + 1 + j, col], items[_V_SIDE_A + 1 + jn, col], t0, t1)
             if not t1 > t0:
                 continue
-            h0 = 0.5 * max(L - (a2 + t0 * g2), 0.0)  # the strip's width at each end [m]: half the overlap
-            h1 = 0.5 * max(L - (a2 + t1 * g2), 0.0)
-            area, y_bar, t_c = _strip(t0, t1, h0, h1, (t1 - t0) * g_len)
-            x0, x1, x2 = a0 + t_c * g0, a1 + t_c * g1, a2 + t_c * g2
+            u0, u1, u2 = a0 + t0 * g0, a1 + t0 * g1, a2 + t0 * g2
+            v0, v1, v2 = a0 + t1 * g0, a1 + t1 * g1, a2 + t1 * g2
+            h0 = 0.5 * max(L - u2, 0.0)  # the strip's width at each end [m]: half the overlap
+            h1 = 0.5 * max(L - v2, 0.0)
+            l0, l1, l2 = v0 - u0, v1 - u1, v2 - u2
+            area, y_bar, along = _strip(h0, h1, math.sqrt(_sum_sq(l0, l1, l2, a)))
+            x0, x1, x2 = u0 + along * l0, u1 + along * l1, u2 + along * l2  # the strip's centre on the edge
             w = area * y_bar * _fade(min(U - abs(x0), V - abs(x1)), max(L - x2, 0.0))
             if not w > 0.0:
                 continue
-            d0, d1, d2 = D0 - t_c * G0, D1 - t_c * G1, D2 - t_c * G2
-            d = max(math.sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-12)
+            # inward: in A's face plane, perpendicular to the edge, towards the face's centre
+            d0, d1 = o0 - x0, o1 - x1
+            s = d0 * e0 + d1 * e1
+            d0, d1, d2 = d0 - s * e0, d1 - s * e1, -(s * e2)
+            d = max(math.sqrt(_sum_sq(d0, d1, d2, a)), 1e-12)
+            d0, d1, d2 = d0 / d, d1 / d, d2 / d
             weight += w
-            sum_u += w * (x0 + y_bar * (d0 / d))
-            sum_v += w * (x1 + y_bar * (d1 / d))
-            z0, z1, z2 = Q0 - t_c * H0, Q1 - t_c * H1, Q2 - t_c * H2
-            d = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-12)
-            z0, z1, z2 = z0 / d, z1 / d, 1.0 + z2 / d  # A's face normal + B's side face's
-            d = max(math.sqrt((z0 * z0 + z1 * z1) + z2 * z2), 1e-300)
-            sum_n0 += w * (z0 / d)
-            sum_n1 += w * (z1 / d)
-            sum_n2 += w * (z2 / d)
+            sum_u += w * (x0 + y_bar * d0)
+            sum_v += w * (x1 + y_bar * d1)
+            # the normal: A's face normal plus B's side face's inward normal (in B's face plane)
+            s = (d0 * nB0 + d1 * nB1) + d2 * nB2
+            d0, d1, d2 = d0 - s * nB0, d1 - s * nB1, d2 - s * nB2
+            d = max(math.sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-12)
+            d0, d1, d2 = d0 / d, d1 / d, 1.0 + d2 / d
+            d = max(math.sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-300)
+            sum_n0 += w * (d0 / d)
+            sum_n1 += w * (d1 / d)
+            sum_n2 += w * (d2 / d)
     # A's slivers: A's edge i, inside the overlap (above B's face), clipped by B's triangle j
     for i in range(4):
         ou, ov = _OUT_U[i], _OUT_V[i]
         a0, a1 = _FAN_U[i] * U, _FAN_V[i] * V
-        b0, b1 = _FAN_U[(i + 1) % 4] * U, _FAN_V[(i + 1) % 4] * V
-        g0, g1 = b0 - a0, b1 - a1
-        dep_a = ((nB0 * (o0 - a0) + nB2 * (o2 - L)) + nB1 * (o1 - a1)) / facing
-        dep_b = ((nB0 * (o0 - b0) + nB2 * (o2 - L)) + nB1 * (o1 - b1)) / facing
-        e_t0, e_t1 = _interval(-dep_a, -dep_b, 0.0, 1.0)
+        g0, g1 = _FAN_U[(i + 1) % 4] * U - a0, _FAN_V[(i + 1) % 4] * V - a1
+        e_t0, e_t1 = _interval(-(_dot_c(nB0, nB1, nB2, o0 - a0, o1 - a1, o2 - L, a) / facing),
+                               -(_dot_c(nB0, nB1, nB2, o0 - (a0 + g0), o1 - (a1 + g1), o2 - L, a) / facing), 0.0, 1.0)
         if not e_t1 > e_t0:
             continue
-        g_len = abs(g0) + abs(g1)  # along u or v
-        # the strip's normal: A's side face's inward normal (-(ou, ov, 0)), negated, less B's face normal
+        # the strip's normal: -(A's side face's inward normal -(ou, ov, 0)) - B's face normal
         m0, m1, m2 = ou - nB0, ov - nB1, -nB2
         d = max(math.sqrt((m0 * m0 + m1 * m1) + m2 * m2), 1e-300)
         m0, m1, m2 = m0 / d, m1 / d, m2 / d
@@ -413,16 +436,17 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 t0, t1 = _interval(items[_V_SIDE_B + i, col], items[_V_SIDE_B + (i + 1) % 4, col], t0, t1)
             if not t1 > t0:
                 continue
-            x0, x1 = a0 + t0 * g0, a1 + t0 * g1
-            h0 = 0.5 * max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
-            x0, x1 = a0 + t1 * g0, a1 + t1 * g1
-            h1 = 0.5 * max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
-            area, y_bar, t_c = _strip(t0, t1, h0, h1, (t1 - t0) * g_len)
-            x0, x1 = a0 + t_c * g0, a1 + t_c * g1
+            u0, u1 = a0 + t0 * g0, a1 + t0 * g1
+            v0, v1 = a0 + t1 * g0, a1 + t1 * g1
+            h0 = 0.5 * max(_dot_c(nB0, nB1, nB2, o0 - u0, o1 - u1, o2 - L, a) / facing, 0.0)
+            h1 = 0.5 * max(_dot_c(nB0, nB1, nB2, o0 - v0, o1 - v1, o2 - L, a) / facing, 0.0)
+            l0, l1 = v0 - u0, v1 - u1
+            area, y_bar, along = _strip(h0, h1, abs(l0 + l1))  # the edge runs along u or v
+            x0, x1 = u0 + along * l0, u1 + along * l1
             q0, q1, q2 = x0 - p0, x1 - p1, L - p2  # how far inside B's face rectangle (in B's frame)
-            qu = (bu0 * q0 + bu1 * q1) + bu2 * q2
-            qv = (bv0 * q0 + bv1 * q1) + bv2 * q2
-            o_c = max(((nB0 * (o0 - x0) + nB2 * (o2 - L)) + nB1 * (o1 - x1)) / facing, 0.0)
+            qu = _dot_lr(bu0, bu1, bu2, q0, q1, q2, a)
+            qv = _dot_lr(bv0, bv1, bv2, q0, q1, q2, a)
+            o_c = max(_dot_c(nB0, nB1, nB2, o0 - x0, o1 - x1, o2 - L, a) / facing, 0.0)
             w = area * y_bar * _fade(min(hB[uB] - abs(qu), hB[vB] - abs(qv)), o_c)
             if not w > 0.0:
                 continue
