@@ -43,12 +43,13 @@ QUAD_VERTS = 9  # a triangle clipped by 6 half-planes keeps at most 9 vertices (
 # towards A (11) [m, or unit] in A, B's fan corners in face coordinates (13-16); planes (32, 7):
 # (normal (3), limit, a point (its two in-plane coordinates)) of A's triangles' sides (i * 3 + k, 0-11), B's triangles'
 # sides in A's face plane (12 + j * 3 + k), the edge clips of B's edges (24 + j) and of A's
-# edges (28 + i); items (10, 12): the current clip's signed distance per vertex (row 0), the
+# edges (28 + i); items (12, 12): the current clip's signed distance per vertex (row 0), the
 # values of A's 12 sides at B's face centre and fan corners (rows 1-5) and of B's 12 sides at
-# A's fan corners (rows 6-9); poly (2, QUAD_VERTS, 3): ping-pong polygon buffers [m] in A
+# A's fan corners and face centre (rows 6-10), the overlap below B's face at A's fan corners and face centre (row 11, columns 0-4);
+# poly (2, QUAD_VERTS, 3): ping-pong polygon buffers [m] in A
 _F_CA, _F_CB, _F_TOP, _F_CENTRE_B, _F_NA, _F_NB, _F_LOCAL_B = 0, 4, 8, 9, 10, 11, 13
 _P_SIDE_A, _P_SIDE_B, _P_EDGE_B, _P_EDGE_A = 0, 12, 24, 28
-_V_SIDE_A, _V_SIDE_B = 1, 6
+_V_SIDE_A, _V_SIDE_B, _V_DEPTH_B = 1, 6, 11
 # A's fan corners (+u +v), (-u +v), (-u -v), (+u -v) (quadrature._FAN); in face coordinates
 # the outward unit normal of A's edge i (corner i -> i + 1)
 _FAN_U = (1.0, -1.0, -1.0, 1.0)
@@ -60,9 +61,9 @@ _SQRT2 = math.sqrt(2.0)
 
 @njit(cache=True)
 def face_on_face_scratch():
-    """(frame (17, 3), planes (32, 7), items (10, 12), poly (2, QUAD_VERTS, 3)): the work
+    """(frame (17, 3), planes (32, 7), items (12, 12), poly (2, QUAD_VERTS, 3)): the work
     arrays of face_on_face, allocated once per batch (their rows: the comment above)."""
-    return np.empty((17, 3)), np.empty((32, 7)), np.empty((10, 12)), np.empty((2, QUAD_VERTS, 3))
+    return np.empty((17, 3)), np.empty((32, 7)), np.empty((12, 12)), np.empty((2, QUAD_VERTS, 3))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -96,22 +97,22 @@ def _clip(poly, src, count, n0, n1, n2, limit, items):
         return count, src
     dst = 1 - src
     n_out = 0
+    x0, x1, x2, si = poly[src, 0, 0], poly[src, 0, 1], poly[src, 0, 2], items[0, 0]
     for i in range(count):
         j = i + 1 if i + 1 < count else 0
-        si, sj = items[0, i], items[0, j]
+        y0, y1, y2, sj = poly[src, j, 0], poly[src, j, 1], poly[src, j, 2], items[0, j]
         inside = si <= 0.0
         if inside:
             r = min(n_out, QUAD_VERTS - 1)
-            for c in range(3):
-                poly[dst, r, c] = poly[src, i, c]
+            poly[dst, r, 0], poly[dst, r, 1], poly[dst, r, 2] = x0, x1, x2
             n_out += 1
         if inside != (sj <= 0.0):
             d = si - sj
             t = si / (1.0 if d == 0.0 else d)
             r = min(n_out, QUAD_VERTS - 1)
-            for c in range(3):
-                poly[dst, r, c] = poly[src, i, c] + t * (poly[src, j, c] - poly[src, i, c])
+            poly[dst, r, 0], poly[dst, r, 1], poly[dst, r, 2] = x0 + t * (y0 - x0), x1 + t * (y1 - x1), x2 + t * (y2 - x2)
             n_out += 1
+        x0, x1, x2, si = y0, y1, y2, sj
     return min(n_out, QUAD_VERTS), dst
 
 
@@ -301,6 +302,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         for r in range(4):
             items[_V_SIDE_A + 1 + r, k] = _side_value(planes, _P_SIDE_A + k, frame, _F_CB + r, uA, vA)
             items[_V_SIDE_B + r, k] = _side_value(planes, _P_SIDE_B + k, frame, _F_CA + r, uA, vA)
+        items[_V_SIDE_B + 4, k] = _side_value(planes, _P_SIDE_B + k, frame, _F_TOP, uA, vA)
     # face coordinates (x[uA], x[vA], sigma_A x[a]) of B's face centre, face normal, axes u
     # and v and fan corners
     p0, p1, p2 = p[uA], p[vA], sigma_A * p[a]
@@ -312,6 +314,11 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         frame[_F_LOCAL_B + k, 0] = frame[_F_CB + k, uA]
         frame[_F_LOCAL_B + k, 1] = frame[_F_CB + k, vA]
         frame[_F_LOCAL_B + k, 2] = sigma_A * frame[_F_CB + k, a]
+    facing = max(-nB2, 1e-6)  # cos of the tilt
+    # the overlap below B's face (quadrature.face_on_face's depth_B_at [m]) at A's fan corners and face centre
+    for r in range(5):
+        xu, xv = (_FAN_U[r] * U, _FAN_V[r] * V) if r < 4 else (0.0, 0.0)
+        items[_V_DEPTH_B, r] = _dot_c(nB0, nB1, nB2, o0 - xu, o1 - xv, o2 - L, a) / facing
     weight, w_poly, depth_sum, sum_u, sum_v = 0.0, 0.0, 0.0, 0.0, 0.0
     # the 16 polygons (A's triangle i, B's triangle j), clipped in quadrature.face_on_face's
     # order; a pair whose triangles lie apart (a side of A's triangle has B's triangle wholly
@@ -326,11 +333,16 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 and _plane_dist(frame, _F_CB + jn, planes, eb) > 0.0):
             continue
         for i in range(4):
+            if nB2 < 0.0 and items[_V_DEPTH_B, 4] < 0.0 and items[_V_DEPTH_B, i] < 0.0 and items[_V_DEPTH_B, (i + 1) % 4] < 0.0:
+                continue  # B's face runs above A's triangle i: nothing of it overlaps
             apart = False
             for k in range(3):
                 col = 3 * i + k
                 apart |= (items[_V_SIDE_A, col] > 0.0 and items[_V_SIDE_A + 1 + j, col] > 0.0
                           and items[_V_SIDE_A + 1 + jn, col] > 0.0)
+                col = 3 * j + k
+                apart |= (items[_V_SIDE_B + 4, col] > 0.0 and items[_V_SIDE_B + i, col] > 0.0
+                          and items[_V_SIDE_B + (i + 1) % 4, col] > 0.0)
             if apart:
                 continue
             for c in range(3):
@@ -368,7 +380,6 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             depth_sum += w * overlap
             sum_u += w * (c0 if uA == 0 else (c1 if uA == 1 else c2))
             sum_v += w * (c0 if vA == 0 else (c1 if vA == 1 else c2))
-    facing = max(-nB2, 1e-6)  # cos of the tilt
     sum_n0, sum_n1, sum_n2 = 0.0, 0.0, 0.0
     # B's slivers: B's edge j, inside the overlap (below A's face), clipped by A's triangle i
     for j in range(4):
@@ -421,8 +432,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         ou, ov = _OUT_U[i], _OUT_V[i]
         a0, a1 = _FAN_U[i] * U, _FAN_V[i] * V
         g0, g1 = _FAN_U[(i + 1) % 4] * U - a0, _FAN_V[(i + 1) % 4] * V - a1
-        e_t0, e_t1 = _interval(-(_dot_c(nB0, nB1, nB2, o0 - a0, o1 - a1, o2 - L, a) / facing),
-                               -(_dot_c(nB0, nB1, nB2, o0 - (a0 + g0), o1 - (a1 + g1), o2 - L, a) / facing), 0.0, 1.0)
+        e_t0, e_t1 = _interval(-items[_V_DEPTH_B, i], -items[_V_DEPTH_B, (i + 1) % 4], 0.0, 1.0)
         if not e_t1 > e_t0:
             continue
         # the strip's normal: -(A's side face's inward normal -(ou, ov, 0)) - B's face normal
