@@ -176,14 +176,15 @@ def _interval(s0, s1, t0, t1):
     """The part [t0, t1] of a segment (t in [0, 1]) where a linear function, s0 at t = 0 and
     s1 at t = 1, is <= 0, intersected with the given [t0, t1]; t1 = -1 where s0 and s1 are
     both > 0 (quadrature.face_on_face's sliver interval)."""
-    d = s0 - s1
-    t_cross = s0 / (1.0 if d == 0.0 else d)
-    if s0 > 0.0 and s1 <= 0.0:
-        t0 = max(t0, t_cross)
-    if s0 <= 0.0 and s1 > 0.0:
-        t1 = min(t1, t_cross)
-    if s0 > 0.0 and s1 > 0.0:
-        t1 = -1.0
+    if s0 > 0.0:
+        if s1 > 0.0:
+            t1 = -1.0
+        elif s1 <= 0.0:
+            d = s0 - s1
+            t0 = max(t0, s0 / (1.0 if d == 0.0 else d))
+    elif s0 <= 0.0 and s1 > 0.0:
+        d = s0 - s1
+        t1 = min(t1, s0 / (1.0 if d == 0.0 else d))
     return t0, t1
 
 
@@ -397,6 +398,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             for k in range(3):
                 col = 3 * i + k
                 t0, t1 = _interval(items[_V_SIDE_A + 1 + j, col], items[_V_SIDE_A + 1 + jn, col], t0, t1)
+                if not t1 > t0:  # the edge misses the triangle
+                    break
             if not t1 > t0:
                 continue
             u0, u1, u2 = a0 + t0 * g0, a1 + t0 * g1, a2 + t0 * g2
@@ -444,6 +447,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             for k in range(3):
                 col = 3 * j + k
                 t0, t1 = _interval(items[_V_SIDE_B + i, col], items[_V_SIDE_B + (i + 1) % 4, col], t0, t1)
+                if not t1 > t0:
+                    break
             if not t1 > t0:
                 continue
             u0, u1 = a0 + t0 * g0, a1 + t0 * g1
