@@ -38,18 +38,19 @@ import numpy as np
 from numba import njit
 
 QUAD_VERTS = 9  # a triangle clipped by 6 half-planes keeps at most 9 vertices (quadrature._MAX_VERTS)
-# scratch rows (`face_on_face_scratch`): frame (17, 3): A's fan corners (0-3), B's fan corners
-# (4-7), A's face centre (8), B's face centre (9), A's face normal (10), B's face normal
-# towards A (11) [m, or unit] in A, B's fan corners in face coordinates (13-16); planes (32, 7):
-# (normal (3), limit, a point (its two in-plane coordinates)) of A's triangles' sides (i * 3 + k, 0-11), B's triangles'
-# sides in A's face plane (12 + j * 3 + k), the edge clips of B's edges (24 + j) and of A's
-# edges (28 + i); items (12, 12): the current clip's signed distance per vertex (row 0), the
-# values of A's 12 sides at B's face centre and fan corners (rows 1-5) and of B's 12 sides at
-# A's fan corners and face centre (rows 6-10), the overlap below B's face at A's fan corners and face centre (row 11, columns 0-4);
+# scratch rows (`face_on_face_scratch`): frame (16, 3): A's fan corners (0-3), B's fan corners
+# (4-7), A's face centre (8), B's face centre (9) [m], A's face normal (10), B's face normal
+# towards A (11), all in A, and B's fan corners in face coordinates (12-15) [m]; planes (32, 6):
+# (normal (3), limit [m], a point's two in-plane coordinates [m]) of A's triangles' sides
+# (i * 3 + k, 0-11) and B's triangles' sides in A's face plane (12 + j * 3 + k), (normal (3),
+# limit) of the edge clips of B's edges (24 + j) and of A's edges (28 + i); items (11, 12): the
+# current clip's signed distance per vertex (row 0), the values of A's 12 sides at B's face
+# centre and fan corners (rows 1-5) and of B's 12 sides at A's fan corners (rows 6-9) [m^2],
+# the overlap below B's face at A's fan corners and face centre (row 10, columns 0-4) [m];
 # poly (2, QUAD_VERTS, 3): ping-pong polygon buffers [m] in A
-_F_CA, _F_CB, _F_TOP, _F_CENTRE_B, _F_NA, _F_NB, _F_LOCAL_B = 0, 4, 8, 9, 10, 11, 13
+_F_CA, _F_CB, _F_TOP, _F_CENTRE_B, _F_NA, _F_NB, _F_LOCAL_B = 0, 4, 8, 9, 10, 11, 12
 _P_SIDE_A, _P_SIDE_B, _P_EDGE_B, _P_EDGE_A = 0, 12, 24, 28
-_V_SIDE_A, _V_SIDE_B, _V_DEPTH_B = 1, 6, 11
+_V_SIDE_A, _V_SIDE_B, _V_DEPTH_B = 1, 6, 10
 # A's fan corners (+u +v), (-u +v), (-u -v), (+u -v) (quadrature._FAN); in face coordinates
 # the outward unit normal of A's edge i (corner i -> i + 1)
 _FAN_U = (1.0, -1.0, -1.0, 1.0)
@@ -61,15 +62,9 @@ _SQRT2 = math.sqrt(2.0)
 
 @njit(cache=True)
 def face_on_face_scratch():
-    """(frame (17, 3), planes (32, 7), items (12, 12), poly (2, QUAD_VERTS, 3)): the work
+    """(frame (16, 3), planes (32, 6), items (11, 12), poly (2, QUAD_VERTS, 3)): the work
     arrays of face_on_face, allocated once per batch (their rows: the comment above)."""
-    return np.empty((17, 3)), np.empty((32, 7)), np.empty((12, 12)), np.empty((2, QUAD_VERTS, 3))
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _norm(x):
-    """|x| (np.linalg.norm along an axis: the squares summed left to right)."""
-    return math.sqrt((x[0] * x[0] + x[1] * x[1]) + x[2] * x[2])
+    return np.empty((16, 3)), np.empty((32, 6)), np.empty((11, 12)), np.empty((2, QUAD_VERTS, 3))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -303,7 +298,6 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         for r in range(4):
             items[_V_SIDE_A + 1 + r, k] = _side_value(planes, _P_SIDE_A + k, frame, _F_CB + r, uA, vA)
             items[_V_SIDE_B + r, k] = _side_value(planes, _P_SIDE_B + k, frame, _F_CA + r, uA, vA)
-        items[_V_SIDE_B + 4, k] = _side_value(planes, _P_SIDE_B + k, frame, _F_TOP, uA, vA)
     # face coordinates (x[uA], x[vA], sigma_A x[a]) of B's face centre, face normal, axes u
     # and v and fan corners
     p0, p1, p2 = p[uA], p[vA], sigma_A * p[a]
@@ -341,9 +335,6 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 col = 3 * i + k
                 apart |= (items[_V_SIDE_A, col] > 0.0 and items[_V_SIDE_A + 1 + j, col] > 0.0
                           and items[_V_SIDE_A + 1 + jn, col] > 0.0)
-                col = 3 * j + k
-                apart |= (items[_V_SIDE_B + 4, col] > 0.0 and items[_V_SIDE_B + i, col] > 0.0
-                          and items[_V_SIDE_B + (i + 1) % 4, col] > 0.0)
             if apart:
                 continue
             for c in range(3):
