@@ -45,6 +45,27 @@ R_SLAB = 0.01  # learned_contact.model.expert.R_SLAB (a literal for the same rea
 POINT_TILT = (math.radians(20.0), math.radians(30.0))
 NORMAL_TILT = (math.radians(2.0), math.radians(4.0))
 _FRAME = np.ascontiguousarray(PAPER_FRAME)
+# numba caches the kernels below with the machine code of what they call from prior.py and
+# quadrature.py, and with the imported constants frozen in, yet recompiles them only when this
+# file changes (its cache stamp is this file's). A stale cache would answer with old
+# numerics, so this file carries a digest of those sources and values: a change to either
+# fails tests/learned/test_learned_compiled.py until the digest here is updated, which
+# changes this file and so recompiles the kernels.
+DEPENDENCY_DIGEST = "1f053fc3469bbcd0"
+
+
+def dependency_digest() -> str:
+    """sha256 (16 hex digits) of prior.py's and quadrature.py's sources and of the constants
+    the kernels import (what DEPENDENCY_DIGEST must equal)."""
+    import hashlib
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    for name in ("prior.py", "quadrature.py"):
+        h.update((here / name).read_bytes().replace(b"\r\n", b"\n"))
+    h.update(repr((CLIP_MARGIN, DOMAIN_DEPTH, ROTATION_TOLERANCE, SIZE_TOLERANCE, PAPER_FRAME.tolist())).encode())
+    return h.hexdigest()[:16]
 
 
 def pack_mlp(mlp):
@@ -298,7 +319,7 @@ def _unpack_improved(floats, ints):
 
 
 @njit(cache=True, error_model="numpy")
-def improved_predict(p, R, sA, sB, floats, ints):
+def improved_predict(p, R, sA, sB, floats, ints, point, normal, depth):
     """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): Drake's
     face-on-face quadrature (learned_contact.compiled.quadrature.face_on_face on the
     separating-axis normal) where two faces meet (depth >= DOMAIN_DEPTH[0]), handed over by the
@@ -314,13 +335,14 @@ def improved_predict(p, R, sA, sB, floats, ints):
     weights can be above 0 (depth >= DOMAIN_DEPTH[0], tilt below POINT_TILT[1]); elsewhere
     the numpy path's 0 x q_point is 0 (q is finite there: the blend is the learned answer).
     floats, ints: pack_improved's (the supported sizes, both networks, the gate's bounds).
-    Returns (point (n, 3) [m] in A, normal (n, 3) unit A->B, depth (n,) [m], status, row)."""
+    Fills the caller's point (n, 3) [m] in A, normal (n, 3) unit A->B and depth (n,) [m]
+    (passed in: numba's boxing of three returned arrays costs ~0.65 us more per call than
+    the caller's allocating them, which counts for one pair per call); returns (status, row)."""
     supported, params, dims, act, eparams, edims, eact, domain, has_expert = _unpack_improved(floats, ints)
     n = p.shape[0]
-    point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
     status, row = check_inputs(p, R, sA, sB, supported)
     if status != 0:
-        return point, normal, depth, status, row
+        return status, row
     width = 0
     for i in range(1, dims.shape[0]):
         width = max(width, dims[i])
@@ -417,7 +439,7 @@ def improved_predict(p, R, sA, sB, floats, ints):
         length = math.sqrt(length2)
         for c in range(3):
             normal[r, c] = normal[r, c] / length
-    return point, normal, depth, 0, 0
+    return 0, 0
 
 
 @njit(cache=True)

@@ -56,9 +56,10 @@ Division by zero gives inf or NaN as in the numpy path (error_model="numpy"), no
 exception; the divisions the numpy path guards are guarded the same way.
 
 Caution (numba's cache): a function cached with cache=True is recompiled only when its
-own source file changes, not when a function it calls from another file does; after an
-edit here, touch learned_contact/compiled/kernels.py (or delete its cache files) so that
-improved_predict picks the change up.
+own source file changes, not when a function it calls from another file does. So
+kernels.py carries a digest of this file (kernels.DEPENDENCY_DIGEST, checked by
+tests/learned/test_learned_compiled.py): after an edit here, set it to the value that test
+prints, which changes kernels.py and recompiles improved_predict.
 """
 
 from __future__ import annotations

@@ -14,7 +14,11 @@ times in microseconds per pair:
   and with the pose set per call; Drake's hydroelastic query with the pose set per call.
 Also, on centred stacks (`centred_stacks`: what a yard is made of), the compiled improved
 predictor and Drake's point-pair query side by side.
-Prints the table and the ratios the issues' targets are stated in:
+Prints the table and the ratios the issues' targets are stated in (TARGETS), each with its
+verdict: met, NOT met, or, for a target pinned as a known limit (KNOWN_COST_LIMITS: the
+figure when pinned and a band around it), "known limit" inside the band and "worse than
+pinned" / "better than pinned" outside it (tests/learned/test_cost_targets.py holds the
+same verdicts on every test run):
   single pair (compiled) / Drake point-pair with the pose set per call   <= 0.5 (issue 30; 1 before)
   batched improved (compiled) / Drake point-pair kernel                  <= 0.25
   batched paper (compiled) / Drake point-pair kernel                     <= 0.05
@@ -49,6 +53,29 @@ TARGETS = {  # ratio name -> upper bound (issue 10; the centred stacks' and the 
     "single paper compiled / drake point-pair set+query": 1.0,
     "batched improved compiled / drake point-pair kernel": 0.25,
     "batched paper compiled / drake point-pair kernel": 0.05,
+}
+# The targets not met, pinned: ratio name -> (figure when pinned, (low, high) band, why). A
+# ratio above its band fails (the cost got worse), below it fails too (better: re-pin, or
+# drop the pin where the target is met). The bands are a factor of 2 each way of the figure
+# measured on the development machine (2 shared cores; the same code measured within +-25 %
+# over five runs there, and a CI machine's CPU may favour numba or Drake's C++ differently),
+# never reaching below the target.
+KNOWN_COST_LIMITS: dict[str, tuple[float, tuple[float, float], str]] = {
+    "single improved compiled / drake point-pair set+query": (0.65, (0.5, 1.3), (
+        "poses tilted beyond 4 deg between the faces (most of the mix's general half) run the main "
+        "network, 1.8 us per evaluation in numba (10,304 multiply-adds on 82 KB of float64 weights, "
+        "more than the core's 32 KB L1 cache), on top of the geometry and ~3.5 us of fixed call cost")),
+    "batched improved compiled / drake point-pair kernel": (3.6, (1.8, 7.2), (
+        "the target allows 0.32 us per pair; the main network alone costs 1.5-1.8 us per "
+        "evaluation (0.5 us even at the development machine's peak double-precision rate) and Drake's quadrature "
+        "where faces meet 1.2-1.8 us")),
+    "centred stacks: batched improved compiled / drake point-pair kernel": (1.3, (0.65, 2.6), (
+        "Drake's own quadrature (16 clipped pairs of triangles and 32 edge strips, what makes the "
+        "answer Drake's to 0.05 mm) costs 1.2 us per pair in numba, about Drake's whole box-box "
+        "point-pair query (1.4 us); the target allows 0.36 us")),
+    "batched paper compiled / drake point-pair kernel": (0.55, (0.275, 1.1), (
+        "the paper's 6-20-18-4 network costs 0.65 us per pair compiled; the target (issue 10) "
+        "allows 0.06 us")),
 }
 
 
@@ -90,7 +117,10 @@ def centred_stacks(n: int, seed: int = 5150):
     return p, R, s, s.copy()
 
 
-def measure(args) -> dict:
+def measure(args, numpy_paths: bool = True) -> dict:
+    """{what: us per pair} (module docstring); numpy_paths=False leaves out the numpy
+    reference paths and Drake's hydroelastic query, which no target names (the cost pins'
+    test times only what the targets need)."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
     p, R, sA, sB = _poses(args.n)
@@ -102,7 +132,7 @@ def measure(args) -> dict:
     singles = [(p[i].copy(), R[i].copy(), sA[i].copy(), sB[i].copy()) for i in idx]
     res = {}
     for kind in SHIPPED_NAMES:
-        for compiled in (True, False):
+        for compiled in (True, False) if numpy_paths else (True,):
             pred = load_predictor(kind, compiled=compiled)
             label = f"{kind} {'compiled' if compiled else 'numpy'}"
             pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm up (loads cached machine code)
@@ -118,8 +148,9 @@ def measure(args) -> dict:
     res["improved compiled, geometry + features only, batched"] = _per_pair(
         lambda: improved_features(pb, Rb, sAb, sBb), 3, len(pb))
     packed = [(a[None], b[None], c[None], d[None]) for a, b, c, d in singles]
+    out = (np.empty((1, 3)), np.empty((1, 3)), np.empty(1))
     res["improved compiled, bare kernel, one pair"] = _per_pair(
-        lambda: [improved_predict(a, b, c, d, *fast._kernel_args) for a, b, c, d in packed],
+        lambda: [improved_predict(a, b, c, d, *fast._kernel_args, *out) for a, b, c, d in packed],
         1, len(packed))
 
     code = {tuple(CONTAINER_TYPES[t].size): t for t in ("1CC", "1AA", "1AAA")}
@@ -131,8 +162,9 @@ def measure(args) -> dict:
     res["drake point-pair, kernel (query only)"] = _per_pair(q.ComputePointPairPenetration, 2000, 1)
     res["drake point-pair, set pose + query"] = _per_pair(
         lambda: [posed_query(scenes[i], R[i], p[i]).ComputePointPairPenetration() for i in idx], 1, len(idx))
-    res["drake hydroelastic, set pose + query"] = _per_pair(
-        lambda: [posed_query(scenes[i], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
+    if numpy_paths:
+        res["drake hydroelastic, set pose + query"] = _per_pair(
+            lambda: [posed_query(scenes[i], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
     # centred stacks (issue 30: the quadrature answers them alone, no network runs)
     cp, cR, csA, csB = centred_stacks(args.batch)
     fast.predict(cp, cR, size_A=csA, size_B=csB)
@@ -153,18 +185,34 @@ def measure(args) -> dict:
 
 
 def ratios(res: dict, batch: int) -> dict:
+    """{ratio name: value} of `measure`'s figures (the targets' ratios among them)."""
     pp_set, pp_kernel = res["drake point-pair, set pose + query"], res["drake point-pair, kernel (query only)"]
     out = {}
     for kind in SHIPPED_NAMES:
         out[f"single {kind} compiled / drake point-pair set+query"] = res[f"{kind} compiled, one pair per call"] / pp_set
         out[f"batched {kind} compiled / drake point-pair kernel"] = res[f"{kind} compiled, batched {batch}"] / pp_kernel
-        out[f"batched {kind} numpy / drake point-pair kernel"] = res[f"{kind} numpy, batched {batch}"] / pp_kernel
-        out[f"batched {kind}: numpy / compiled"] = res[f"{kind} numpy, batched {batch}"] / res[
-            f"{kind} compiled, batched {batch}"]
+        if f"{kind} numpy, batched {batch}" in res:  # measured unless numpy_paths=False
+            out[f"batched {kind} numpy / drake point-pair kernel"] = res[f"{kind} numpy, batched {batch}"] / pp_kernel
+            out[f"batched {kind}: numpy / compiled"] = res[f"{kind} numpy, batched {batch}"] / res[
+                f"{kind} compiled, batched {batch}"]
     out["centred stacks: single improved compiled / drake point-pair set+query"] = (
         res["centred stacks: improved compiled, one pair per call"] / res["centred stacks: drake point-pair, set pose + query"])
     out["centred stacks: batched improved compiled / drake point-pair kernel"] = (
         res[f"centred stacks: improved compiled, batched {batch}"] / res["centred stacks: drake point-pair, kernel (query only)"])
+    return out
+
+
+def verdicts(rat: dict) -> dict:
+    """{ratio name: "met" | "NOT met" | "known limit" | "worse than pinned" | "better than
+    pinned"} for every ratio in TARGETS (rat: `ratios`)."""
+    out = {}
+    for name, target in TARGETS.items():
+        r = rat[name]
+        if name not in KNOWN_COST_LIMITS:
+            out[name] = "met" if r <= target else "NOT met"
+            continue
+        low, high = KNOWN_COST_LIMITS[name][1]
+        out[name] = "worse than pinned" if r > high else ("better than pinned" if r < low else "known limit")
     return out
 
 
@@ -183,11 +231,16 @@ def main(argv=None) -> dict:
     for k, v in res.items():
         print(f"{k:<{width}} {v:10.3f} us/pair")
     print("ratios (target where given):")
+    said = verdicts(rat)
     for k, v in rat.items():
-        target = TARGETS.get(k)
-        verdict = "" if target is None else f"  target <= {target:g}: {'met' if v <= target else 'NOT met'}"
+        verdict = ""
+        if k in TARGETS:
+            verdict = f"  target <= {TARGETS[k]:g}: {said[k]}"
+            if k in KNOWN_COST_LIMITS:
+                figure, (low, high), _ = KNOWN_COST_LIMITS[k]
+                verdict += f" (pinned at {figure:g}, band {low:g}-{high:g})"
         print(f"  {k:<{width}} {v:8.3f}{verdict}")
-    out = {"us_per_pair": res, "ratios": rat}
+    out = {"us_per_pair": res, "ratios": rat, "verdicts": said}
     if args.first_call:
         first = first_call_costs()
         print("first call in a fresh process [s]: import learned_contact, load and the first predict")

@@ -134,4 +134,7 @@ class ContactPredictor(MLPPredictor):
         return point, normal
 
     def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
-        return self._kernel(p, R, sA, sB, *self._kernel_args)
+        n = len(p)
+        point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
+        status, row = self._kernel(p, R, sA, sB, *self._kernel_args, point, normal, depth)
+        return point, normal, depth, status, row

@@ -174,6 +174,18 @@ def test_a_fresh_process_loads_cached_machine_code():
     assert int(misses) == 0 and int(hits) >= 2
 
 
+def test_the_kernels_cache_stamp_covers_what_they_compile_in():
+    """numba recompiles a cached kernel only when its own file (kernels.py) changes, yet the
+    kernels carry prior.py's and quadrature.py's machine code and the imported constants:
+    kernels.DEPENDENCY_DIGEST must be their digest, so that changing them changes kernels.py
+    (a stale cache answered with the previous quadrature during issue 30's work). On a
+    failure, set DEPENDENCY_DIGEST to the value printed."""
+    from learned_contact.compiled import kernels
+
+    assert kernels.DEPENDENCY_DIGEST == kernels.dependency_digest(), (
+        f"set DEPENDENCY_DIGEST = {kernels.dependency_digest()!r} in learned_contact/compiled/kernels.py")
+
+
 def test_compiled_features_equal_numpy_features(held_out):
     from learned_contact.compiled.kernels import improved_features
     from learned_contact.model.encodings import canonicalise, features
