@@ -38,7 +38,7 @@ The arithmetic follows the numpy reference wherever a result depends on its roun
 clip distances and the polygon vertices, areas and centroids (a resting contact's weights
 are area x an overlap of microns under faces a metre high, and an edge clip runs within
 microns of a polygon side, so a reordered sum moves the point by 1e-10 m), the sliver
-interval ends, and the sliver strips' widths, centres and fades (`_sum_sq`, `_dot_lr`,
+interval ends, and the sliver strips' widths, centres and fades (`_dot_lr`,
 `_dot_c`: the numpy path's sums over A's axes, its einsum on contiguous operands summing
 (x0 y0 + x2 y2) + x1 y1, written in face coordinates). The sums of the weighted means are
 in another order, and the skipped pairs and strips are those whose area or weight is zero
@@ -227,17 +227,6 @@ def _strip(h0, h1, length):
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _sum_sq(xu, xv, xz, a):
-    """|x|^2 of x given in face coordinates (xu, xv, xz) when A's face axis is a, summed in
-    the numpy path's order over A's axes (np.linalg.norm: left to right)."""
-    if a == 0:
-        return (xz * xz + xu * xu) + xv * xv
-    if a == 1:
-        return (xv * xv + xz * xz) + xu * xu
-    return (xu * xu + xv * xv) + xz * xz
-
-
-@njit(cache=True, inline="always", error_model="numpy")
 def _dot_lr(xu, xv, xz, yu, yv, yz, a):
     """x . y of two vectors in face coordinates, summed left to right over A's axes."""
     if a == 0:
@@ -414,7 +403,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
         e_t0, e_t1 = _interval(-(L - a2), -(L - frame[rb, 2]), 0.0, 1.0)
         if not e_t1 > e_t0:
             continue
-        g_len = max(math.sqrt(_sum_sq(g0, g1, g2, a)), 1e-12)
+        g_len = max(math.sqrt(_dot_lr(g0, g1, g2, g0, g1, g2, a)), 1e-12)
         e0, e1, e2 = g0 / g_len, g1 / g_len, g2 / g_len
         for i in range(4):
             t0, t1 = e_t0, e_t1
@@ -430,7 +419,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             h0 = 0.5 * max(L - u2, 0.0)  # the strip's width at each end [m]: half the overlap
             h1 = 0.5 * max(L - v2, 0.0)
             l0, l1, l2 = v0 - u0, v1 - u1, v2 - u2
-            area, y_bar, along = _strip(h0, h1, math.sqrt(_sum_sq(l0, l1, l2, a)))
+            area, y_bar, along = _strip(h0, h1, math.sqrt(_dot_lr(l0, l1, l2, l0, l1, l2, a)))
             x0, x1, x2 = u0 + along * l0, u1 + along * l1, u2 + along * l2  # the strip's centre on the edge
             w = area * y_bar * _fade(min(U - abs(x0), V - abs(x1)), max(L - x2, 0.0))
             if not w > 0.0:
@@ -439,7 +428,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             d0, d1 = o0 - x0, o1 - x1
             s = d0 * e0 + d1 * e1
             d0, d1, d2 = d0 - s * e0, d1 - s * e1, -(s * e2)
-            d = max(math.sqrt(_sum_sq(d0, d1, d2, a)), 1e-12)
+            d = max(math.sqrt(_dot_lr(d0, d1, d2, d0, d1, d2, a)), 1e-12)
             d0, d1, d2 = d0 / d, d1 / d, d2 / d
             weight += w
             sum_u += w * (x0 + y_bar * d0)
