@@ -58,10 +58,12 @@ TARGETS = {  # ratio name -> upper bound (issue 10; the centred stacks' and the 
 # ratio above its band fails (the cost got worse), below it fails too (better: re-pin, or
 # drop the pin where the target is met). The bands are a factor of 2 each way of the figure
 # measured on the development machine (2 shared cores; the same code measured within +-25 %
-# over five runs there, and a CI machine's CPU may favour numba or Drake's C++ differently),
-# never reaching below the target.
+# over runs there, and a CI machine's CPU may favour numba or Drake's C++ differently). A
+# band may reach below its target: the mix's one-pair-per-call ratio measured 0.60-0.65 on
+# the idle machine and 0.49 with a validation run beside it (Python-bound calls on both
+# sides, slowed unequally), so one run below the target does not show the target met.
 KNOWN_COST_LIMITS: dict[str, tuple[float, tuple[float, float], str]] = {
-    "single improved compiled / drake point-pair set+query": (0.65, (0.5, 1.3), (
+    "single improved compiled / drake point-pair set+query": (0.62, (0.31, 1.24), (
         "poses tilted beyond 4 deg between the faces (most of the mix's general half) run the main "
         "network, 1.8 us per evaluation in numba (10,304 multiply-adds on 82 KB of float64 weights, "
         "more than the core's 32 KB L1 cache), on top of the geometry and ~3.5 us of fixed call cost")),

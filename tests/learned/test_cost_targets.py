@@ -40,13 +40,19 @@ def test_cost_target_is_met_or_within_its_pin(measured, name):
     assert ratio <= high, f"{name}: {ratio:.3g}, worse than its pin ({figure:g}, band {low:g}-{high:g})"
     assert ratio >= low, (f"{name}: {ratio:.3g}, better than its pin ({figure:g}, band {low:g}-{high:g}): "
                           f"re-pin it, or drop it where the target ({target:g}) is met")
-    pytest.xfail(f"known limit: {name} = {ratio:.3g} against the target {target:g} (pinned at {figure:g}): {why}")
+    this_run = " (below the target in this run, within the pin's spread)" if ratio <= target else ""
+    pytest.xfail(f"known limit: {name} = {ratio:.3g}{this_run} against the target {target:g} "
+                 f"(pinned at {figure:g}): {why}")
+
+
+def target_missed(name: str, figure: float) -> bool:
+    return name in TARGETS and figure > TARGETS[name]
 
 
 def test_cost_pins_name_unmet_targets_and_bracket_their_figures():
     for name, (figure, (low, high), why) in KNOWN_COST_LIMITS.items():
-        assert name in TARGETS, name
-        assert TARGETS[name] <= low <= figure <= high, name  # a band never reaches below the target
+        assert target_missed(name, figure) and low <= figure <= high, name
+        assert high <= 2.0 * figure + 1e-12 and low >= 0.5 * figure - 1e-12, name  # the stated factor of 2
         assert why.strip(), name
 
 
