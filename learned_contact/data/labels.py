@@ -4,7 +4,10 @@ For each proposal (sampling.py) a worker process places A at the origin and B at
 p_AB = base + s u, bisecting s with Drake's signed distance until the penetration
 depth equals the target, then asks the QueryObject (not a sampled output port) for
 - ComputeContactSurfaces(kPolygon) -> testbed.contact.surfaces.static_pressure:
-  centre of pressure and pressure-weighted normal, turned to point from A towards B;
+  centre of pressure (the exact integral of Drake's pressure field over Drake's contact
+  surface) and pressure-weighted normal, turned to point from A towards B; beside it the
+  one-point rule's centre of pressure (each polygon at its centroid: what Drake's discrete
+  solver applies), the named second reference;
 - ComputePointPairPenetration: Drake's point-contact point (midpoint of the two
   witness points), normal A->B and depth.
 A sits at the world origin, so world quantities are A-frame quantities.
@@ -28,7 +31,8 @@ from learned_contact.model.prior import contact_type
 from testbed.drake_support import drake_version
 from testbed.progress import progress as progress_bar
 
-LABEL_VERSION = 2  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus)
+LABEL_VERSION = 3  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus;
+# 3: the centre of pressure is the exact integral, the one-point rule's beside it)
 _BISECT_TOL = 1e-6  # [m]
 
 # Per-process state: (type_a, type_b) -> testbed.contact.pair_plant.ContainerPair
@@ -91,6 +95,7 @@ def label_one(type_a: str, type_b: str, R_AB, base, direction, depth) -> np.ndar
         row[10:13] = flip * sp.force  # elastic force on B [N]
         row[13] = sp.area
         row[14] = len(faces.area)
+        row[22:25] = sp.cop_one_point
     pairs = q.ComputePointPairPenetration()
     if pairs:
         pp = pairs[0]
@@ -113,8 +118,9 @@ LABEL_FIELDS = {
     "pp_point": slice(15, 18),  # point contact: midpoint of witness points [m]
     "pp_normal": slice(18, 21),  # point contact: unit normal A->B
     "pp_depth": slice(21, 22),  # point contact depth [m]
+    "cop_one_point": slice(22, 25),  # Drake's one-point rule's centre of pressure in A [m]
 }
-LABEL_WIDTH = 22
+LABEL_WIDTH = 25
 
 
 def _label_chunk(args) -> np.ndarray:
@@ -159,7 +165,8 @@ class Dataset:
     """Labelled poses (only those with a contact surface). Arrays in A's frame.
 
     p_AB (n, 3) [m]; R_AB (n, 3, 3); size_A, size_B (n, 3) full extents [m];
-    cop (n, 3) [m]; normal (n, 3) unit A->B; depth (n,) [m]; tag (n,) index into
+    cop (n, 3) [m] the exact centre of pressure; cop_one_point (n, 3) [m] the one-point
+    rule's (what Drake's discrete solver applies); normal (n, 3) unit A->B; depth (n,) [m]; tag (n,) index into
     geometry.CONTACT_TYPES; pp_point (n, 3) [m], pp_normal (n, 3), pp_depth (n,) [m]:
     Drake's point-contact answer. n_dropped: proposals without a contact surface.
     """
@@ -177,6 +184,7 @@ class Dataset:
     pp_point: np.ndarray
     pp_normal: np.ndarray
     pp_depth: np.ndarray
+    cop_one_point: np.ndarray
     n_dropped: int
 
     def __len__(self) -> int:
@@ -210,7 +218,7 @@ def make_dataset(distribution: str, n: int, seed: int, *, types=("1CC", "1AA", "
         distribution=distribution, p_AB=p_AB, R_AB=props.R_AB, size_A=size_A, size_B=size_B,
         cop=get("cop"), normal=get("normal"), depth=get("depth")[:, 0], area=get("area")[:, 0],
         tag=tag, pp_point=get("pp_point"), pp_normal=get("pp_normal"), pp_depth=get("pp_depth")[:, 0],
-        n_dropped=0,
+        cop_one_point=get("cop_one_point"), n_dropped=0,
     )
     ds = ds.subset(ok)
     return dataclasses.replace(ds, n_dropped=int((~ok).sum()))

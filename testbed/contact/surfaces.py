@@ -6,11 +6,20 @@ Conventions used across the testbed (records, labels, comparison):
   plant (the ground before every container, then containers in scene order).
 - Points and normals are in the world frame W unless a name says otherwise.
 
+The centre of pressure is the exact integral of Drake's pressure field over Drake's own
+contact surface: inside each polygon the pressure is linear, so each polygon is fanned into
+triangles and each triangle's first moment integrated in closed form (`face_moments`). Drake's
+discrete solver instead applies each polygon's force at its centroid (the one-point rule:
+it drops each polygon's second moment of area times the pressure gradient), which on a
+tilted face puts the centre of pressure 2/3 of the way to the exact one; that answer stays
+available as `StaticPressure.cop_one_point`, and the distance between the two is the
+truth's own discretisation error. Force and normal are integrated exactly by both rules.
+
 Drake 1.51.1's Python bindings give no bulk array view of a contact-surface mesh (the
-polygon mesh's vertices are not shared between faces either, so reading vertices costs
-as much), so `surface_face_arrays` reads each polygon with four binding calls (~2 us
-per face); every computation after that is numpy on whole arrays. Callers that need it
-every step hold the result (testbed.contact.extraction.StaticHold).
+polygon mesh's vertices are not shared between faces either), so `surface_face_arrays`
+reads each polygon with four binding calls and each vertex with two (~0.3 ms for a
+30-polygon container surface); every computation after that is numpy on whole arrays.
+Callers that need it every step hold the result (testbed.contact.extraction.StaticHold).
 """
 
 from __future__ import annotations
@@ -24,22 +33,28 @@ class SurfaceFaces(NamedTuple):
     """Per-face data of one hydroelastic contact surface, in W.
 
     area (f,) [m^2]; normal (f, 3) unit, out of geometry N into M; centroid (f, 3) [m];
-    pressure (f,) [Pa] at the face centroid.
+    pressure (f,) [Pa] at the face centroid; moment (f, 3) [N m]: the exact first moment
+    of the pressure over the face, integral of p x dA with x in W (the one-point rule's is
+    area * pressure * centroid).
     """
 
     area: np.ndarray
     normal: np.ndarray
     centroid: np.ndarray
     pressure: np.ndarray
+    moment: np.ndarray
 
 
 class StaticPressure(NamedTuple):
     """The static (no dissipation, no friction) answer of a contact surface, in W.
 
-    cop (3,) [m]: pressure-weighted centroid (centre of pressure).
+    cop (3,) [m]: centre of pressure, the exact integral of p x dA over integral of p dA.
     normal (3,): unit, normalised pressure-weighted face normal, out of N into M.
     force (3,) [N]: integral of p n dA, the elastic force on M.
     area [m^2]; centroid (3,) [m]: area-weighted centroid.
+    cop_one_point (3,) [m]: the centre of pressure of Drake's one-point rule (each
+    polygon's force at its centroid: what Drake's discrete solver applies);
+    |cop - cop_one_point| is the truth's own discretisation error.
     """
 
     cop: np.ndarray
@@ -47,23 +62,68 @@ class StaticPressure(NamedTuple):
     force: np.ndarray
     area: float
     centroid: np.ndarray
+    cop_one_point: np.ndarray
 
 
 def surface_face_arrays(surface) -> SurfaceFaces:
     """Reads a pydrake ContactSurface (polygon or triangle representation) into arrays."""
     if surface.is_triangle():
         mesh, field = surface.tri_mesh_W(), surface.tri_e_MN()
+        polygons = [[t.vertex(k) for k in range(3)] for t in mesh.triangles()]
     else:
         mesh, field = surface.poly_mesh_W(), surface.poly_e_MN()
+        polygons = _polygons(mesh.face_data())
     area, normal, centroid, evaluate = mesh.area, mesh.face_normal, mesh.element_centroid, field.EvaluateCartesian
     rows = [(area(f), normal(f), c, evaluate(f, c)) for f in range(mesh.num_elements()) for c in (centroid(f),)]
     if not rows:
         z = np.zeros((0, 3))
-        return SurfaceFaces(np.zeros(0), z, z, np.zeros(0))
+        return SurfaceFaces(np.zeros(0), z, z, np.zeros(0), z)
     area, normal, centroid, pressure = zip(*rows)
+    n_v = mesh.num_vertices()
+    p_WV = np.array([mesh.vertex(v) for v in range(n_v)], dtype=float).reshape(n_v, 3)  # (v, 3) [m]
+    p_V = np.array([field.EvaluateAtVertex(v) for v in range(n_v)], dtype=float)  # (v,) [Pa]
     return SurfaceFaces(
-        np.asarray(area), np.asarray(normal), np.asarray(centroid), np.asarray(pressure)
+        np.asarray(area), np.asarray(normal), np.asarray(centroid), np.asarray(pressure),
+        face_moments(p_WV, p_V, polygons),
     )
+
+
+def _polygons(face_data) -> list[list[int]]:
+    """Vertex indices of each polygon from PolygonSurfaceMesh.face_data() ([n0, v.., n1, v.., ...])."""
+    out, i = [], 0
+    while i < len(face_data):
+        count = face_data[i]
+        out.append(list(face_data[i + 1:i + 1 + count]))
+        i += 1 + count
+    return out
+
+
+def face_moments(p_WV, p_V, polygons) -> np.ndarray:
+    """(f, 3) [N m] exact integral of p x dA over each convex planar polygon, p linear on it.
+
+    p_WV (v, 3) [m] vertex positions; p_V (v,) [Pa] the pressure at each vertex; polygons:
+    f lists of vertex indices (counter-clockwise or clockwise, convex). Each polygon is fanned
+    from its first vertex; a triangle (a, b, c) of area A contributes
+    A/12 [(p_a + p_b + p_c)(x_a + x_b + x_c) + p_a x_a + p_b x_b + p_c x_c]
+    (the degree-2 integral of a linear function times a linear function over a triangle).
+    """
+    face, ia, ib, ic = [], [], [], []
+    for f, poly in enumerate(polygons):
+        for k in range(1, len(poly) - 1):
+            face.append(f)
+            ia.append(poly[0])
+            ib.append(poly[k])
+            ic.append(poly[k + 1])
+    out = np.zeros((len(polygons), 3))
+    if not face:
+        return out
+    x_a, x_b, x_c = p_WV[ia], p_WV[ib], p_WV[ic]  # (t, 3) each
+    p_a, p_b, p_c = p_V[ia], p_V[ib], p_V[ic]
+    area = 0.5 * np.linalg.norm(cross(x_b - x_a, x_c - x_a), axis=1)  # (t,)
+    moment = (area / 12.0)[:, None] * ((p_a + p_b + p_c)[:, None] * (x_a + x_b + x_c)
+                                       + p_a[:, None] * x_a + p_b[:, None] * x_b + p_c[:, None] * x_c)
+    np.add.at(out, np.asarray(face), moment)
+    return out
 
 
 def static_pressure(faces: SurfaceFaces) -> StaticPressure:
@@ -71,17 +131,20 @@ def static_pressure(faces: SurfaceFaces) -> StaticPressure:
     area = float(faces.area.sum())
     if area <= 0.0:
         nan3 = np.full(3, np.nan)
-        return StaticPressure(nan3, nan3, np.zeros(3), 0.0, nan3)
-    weight = faces.area * faces.pressure  # (f,) [N]
+        return StaticPressure(nan3, nan3, np.zeros(3), 0.0, nan3, nan3)
+    weight = faces.area * faces.pressure  # (f,) [N]: integral of p dA, exact for a linear p
     w_sum = weight.sum()
     centroid = faces.area @ faces.centroid / area
     if w_sum <= 0.0:  # zero pressure everywhere (touching at the margin): fall back to area
         weight, w_sum = faces.area, area
-    cop = weight @ faces.centroid / w_sum
+        cop = one_point = centroid
+    else:
+        cop = faces.moment.sum(axis=0) / w_sum
+        one_point = weight @ faces.centroid / w_sum
     force = (faces.area * faces.pressure) @ faces.normal  # (3,)
     direction = weight @ faces.normal
     normal = direction / np.linalg.norm(direction)
-    return StaticPressure(cop, normal, force, area, centroid)
+    return StaticPressure(cop, normal, force, area, centroid, one_point)
 
 
 _NEXT, _PREV = [1, 2, 0], [2, 0, 1]

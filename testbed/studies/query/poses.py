@@ -105,7 +105,7 @@ def make_pose_sets(n_poses: int, seed: int, *, progress: bool = True, use_cache:
     get = lambda f: rows[:, LABEL_FIELDS[f]]  # noqa: E731
     ds = Dataset("near_parallel", get("p_AB"), props.R_AB, size_A, size_B, get("cop"), get("normal"),
                  get("depth")[:, 0], get("area")[:, 0], np.zeros(len(rows), int), get("pp_point"),
-                 get("pp_normal"), get("pp_depth")[:, 0], 0)
+                 get("pp_normal"), get("pp_depth")[:, 0], get("cop_one_point"), 0)
     ds = dataclasses.replace(ds.subset(ok), n_dropped=int((~ok).sum()))
     out["near_parallel"] = _from_dataset("near_parallel", ds, tilt[ok])
     return out
