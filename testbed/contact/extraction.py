@@ -11,8 +11,13 @@ Columns (k contacts):
   p_W_centroid    (k, 3) [m]   hydroelastic: area-weighted surface centroid; point: contact point
   p_W_cop         (k, 3) [m]   centre of pressure: the point of the contact wrench's line of
                                action nearest the centroid (point: the contact point)
-  p_W_cop_static  (k, 3) [m]   pressure-weighted centroid of the surface (elastic pressure only,
-                               the learned labels' definition; point: the contact point)
+  p_W_cop_static  (k, 3) [m]   centre of pressure of the elastic pressure: the exact integral of
+                               Drake's pressure field over the surface (the learned labels'
+                               definition; point: the contact point)
+  p_W_cop_one_point (k, 3) [m] the same by Drake's one-point rule (each polygon's pressure at its
+                               centroid: what Drake's discrete solver applies); its distance to
+                               p_W_cop_static is the truth's own discretisation error (point:
+                               the contact point)
   n_W             (k, 3)       unit normal, a -> b (hydroelastic: pressure-weighted)
   static_age      (k,)   int   steps since p_W_cop_static and n_W were computed from the
                                surface's faces: 0 = on this row's state; k > 0 = held from
@@ -35,7 +40,7 @@ from testbed.contact.surfaces import point_on_line_of_action, split_force, stati
 from testbed.geometry.boxes import QueryBoxes
 
 HYDRO, POINT = 0, 1
-VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "p_W_cop_static", "n_W", "f_W", "ft_W")
+VECTOR_COLUMNS = ("p_W_centroid", "p_W_cop", "p_W_cop_static", "p_W_cop_one_point", "n_W", "f_W", "ft_W")
 SCALAR_COLUMNS = ("a", "b", "kind", "fn", "area", "phi", "static_age")
 INT_COLUMNS = ("a", "b", "kind", "static_age")
 
@@ -47,27 +52,27 @@ def empty_columns() -> dict[str, np.ndarray]:
 
 
 def _assemble(rows: list[tuple], ages=None) -> dict[str, np.ndarray]:
-    """rows: (a, b, kind, centroid, cop, cop_static, n, f, area, phi), already oriented
-    a -> b; ages: static_age per row (None: all 0). Three array conversions in all (a
+    """rows: (a, b, kind, centroid, cop, cop_static, cop_one_point, n, f, area, phi), already
+    oriented a -> b; ages: static_age per row (None: all 0). Three array conversions in all (a
     step's record is a few rows: per-call overhead is what costs)."""
     if not rows:
         return empty_columns()
     cols = tuple(zip(*rows))
     ints = np.array(cols[0:3], dtype=int)  # (3, k)
-    vec = np.array(cols[3:8], dtype=float).reshape(5, -1, 3)  # (5, k, 3)
-    scal = np.array(cols[8:10], dtype=float)  # (2, k)
-    f, n = vec[4], vec[3]
+    vec = np.array(cols[3:9], dtype=float).reshape(6, -1, 3)  # (6, k, 3)
+    scal = np.array(cols[9:11], dtype=float)  # (2, k)
+    f, n = vec[5], vec[4]
     fn, ft = split_force(f, n)
     return {
         "a": ints[0], "b": ints[1], "kind": ints[2],
-        "p_W_centroid": vec[0], "p_W_cop": vec[1], "p_W_cop_static": vec[2],
+        "p_W_centroid": vec[0], "p_W_cop": vec[1], "p_W_cop_static": vec[2], "p_W_cop_one_point": vec[3],
         "n_W": n, "f_W": f, "fn": fn, "ft_W": ft, "area": scal[0], "phi": scal[1],
         "static_age": np.zeros(len(ints[0]), dtype=int) if ages is None else np.array(ages, dtype=int),
     }
 
 
 class StaticHold:
-    """Each pair's static columns (pressure-weighted CoP and normal, a -> b), read from its
+    """Each pair's static columns (exact and one-point CoP, normal a -> b), read from its
     surface's faces at most every `every` steps and held in between.
 
     Drake 1.51's bindings read a contact surface one face at a time (four calls per face,
@@ -81,15 +86,16 @@ class StaticHold:
 
     def __init__(self, every: int = 1):
         self.every = max(int(every), 1)
-        self._held: dict = {}  # (a, b) -> (step, cop (3,), normal (3,) a -> b)
+        self._held: dict = {}  # (a, b) -> (step, cop (3,), cop_one_point (3,), normal (3,) a -> b)
 
     def get(self, key, step: int, surface, sign: float):
-        """(cop (3,) [m], normal (3,) a -> b, age [steps]) of pair `key` at `step`."""
+        """(cop (3,) [m], cop_one_point (3,) [m], normal (3,) a -> b, age [steps]) of pair `key`
+        at `step`."""
         held = self._held.get(key)
         if held is None or not 0 <= step - held[0] < self.every:
             static = static_pressure(surface_face_arrays(surface))
-            held = self._held[key] = (step, static.cop, sign * static.normal)
-        return held[1], held[2], step - held[0]
+            held = self._held[key] = (step, static.cop, static.cop_one_point, sign * static.normal)
+        return held[1], held[2], held[3], step - held[0]
 
 
 NEAR_DISTANCE = 1e-3  # [m] pairs closer than this get a signed distance each step
@@ -139,11 +145,11 @@ def from_contact_results(results, distances: dict, owner: dict, *, hold: StaticH
         centroid = surface.centroid()
         if hold is None:
             static = static_pressure(surface_face_arrays(surface))
-            cop_static, normal, age = static.cop, sign * static.normal, 0
+            cop_static, one_point, normal, age = static.cop, static.cop_one_point, sign * static.normal, 0
         else:
-            cop_static, normal, age = hold.get((a, b), step, surface, sign)
+            cop_static, one_point, normal, age = hold.get((a, b), step, surface, sign)
         # the p_W_cop slot carries the torque on b about the centroid until _assemble is done
-        rows.append((a, b, HYDRO, centroid, sign * F.rotational(), cop_static, normal, sign * f_M,
+        rows.append((a, b, HYDRO, centroid, sign * F.rotational(), cop_static, one_point, normal, sign * f_M,
                      surface.total_area(), _signed_distance(distances, id_M, id_N)))
         ages.append(age)
     for i in range(results.num_point_pair_contacts()):
@@ -152,7 +158,7 @@ def from_contact_results(results, distances: dict, owner: dict, *, hold: StaticH
         a, b, sign = _orient(owner, pair.id_B, pair.id_A)  # nhat_BA_W: out of B into A
         point = info.contact_point()
         f_B = info.contact_force()  # on B
-        rows.append((a, b, POINT, point, point, point, sign * pair.nhat_BA_W, -sign * f_B, 0.0, -pair.depth))
+        rows.append((a, b, POINT, point, point, point, point, sign * pair.nhat_BA_W, -sign * f_B, 0.0, -pair.depth))
         ages.append(0)
     out = _assemble(rows, ages)
     h = out["kind"] == HYDRO  # centres of pressure of the hydroelastic rows, one vectorised call
@@ -175,7 +181,7 @@ def point_pairs_from_query(query, owner: dict, stiffness: dict) -> dict[str, np.
         k_1, k_2 = stiffness[pair.id_A], stiffness[pair.id_B]
         k = k_1 * k_2 / (k_1 + k_2)
         point = 0.5 * (pair.p_WCa + pair.p_WCb)
-        rows.append((a, b, POINT, point, point, point, n, k * pair.depth * n, 0.0, -pair.depth))
+        rows.append((a, b, POINT, point, point, point, point, n, k * pair.depth * n, 0.0, -pair.depth))
     return _assemble(rows)
 
 
@@ -187,7 +193,8 @@ def hydro_surfaces_from_query(query, owner: dict) -> dict[str, np.ndarray]:
         a, b, sign = _orient(owner, id_N, id_M)
         static = static_pressure(surface_face_arrays(surface))
         # static.force is the elastic force on M; on b it is sign * force.
-        rows.append((a, b, HYDRO, static.centroid, static.cop, static.cop, sign * static.normal, sign * static.force,
+        rows.append((a, b, HYDRO, static.centroid, static.cop, static.cop, static.cop_one_point, sign * static.normal,
+                     sign * static.force,
                      static.area, _signed_distance(distances, id_M, id_N)))
     return _assemble(rows)
 

@@ -11,10 +11,14 @@ the two bodies' poses, one batched call per BATCH_STEPS recorded steps, and reco
   p_W_pred (k, 3) [m]  predicted contact point in W
   n_W_pred (k, 3)      predicted unit normal, a -> b, in W
   point_error (k,) [m] |p_W_pred - p_W_cop_static| against the driving model's answer
-                       (the pressure-weighted centroid: the definition the predictor is
-                       trained for; for point contact, the contact point); NaN where the
-                       logger's static columns are held from an earlier step
+                       (the exact centre of pressure of Drake's pressure field: the definition
+                       the predictor is trained for; for point contact, the contact point);
+                       NaN where the logger's static columns are held from an earlier step
                        (static_age > 0, see contact_log's static_every_steps)
+  one_point_error (k,) [m] |p_W_pred - p_W_cop_one_point|: against Drake's one-point rule
+                       (what Drake's discrete solver applies; the second reference)
+  truth_gap (k,) [m]   |p_W_cop_static - p_W_cop_one_point|: the truth's own discretisation
+                       error at this row (0 for point contact); NaN like point_error
   normal_error_deg (k,) angle between n_W_pred and the driving model's n_W (NaN likewise)
   shadow_point_error, shadow_normal_error_deg (k,)  the same against the shadow
                        model's answer on the same state (NaN where none)
@@ -56,7 +60,7 @@ class LearnedContactConfig:
 def _empty() -> dict:
     z3, z = np.zeros((0, 3)), np.zeros(0)
     return {"a": z.astype(int), "b": z.astype(int), "p_W_pred": z3, "n_W_pred": z3, "point_error": z,
-            "normal_error_deg": z, "shadow_point_error": z, "shadow_normal_error_deg": z}
+            "one_point_error": z, "truth_gap": z, "normal_error_deg": z, "shadow_point_error": z, "shadow_normal_error_deg": z}
 
 
 class LearnedContactProbe(LeafSystem):
@@ -97,7 +101,8 @@ class LearnedContactProbe(LeafSystem):
         if not steps:
             return
         self.last_step = steps[-1][0]
-        names = ("a", "b", "phi", "p_WA", "R_WA", "p_WB", "R_WB", "p_W_cop_static", "n_W", "static_age")
+        names = ("a", "b", "phi", "p_WA", "R_WA", "p_WB", "R_WB", "p_W_cop_static", "p_W_cop_one_point", "n_W",
+                 "static_age")
         rows = {k: np.concatenate([r[k] for _, _, r in steps]) for k in names}
         owner = np.repeat(np.arange(len(steps)), [len(r["a"]) for _, _, r in steps])  # row -> index in steps
         keep = self._is_container[rows["a"]] & self._is_container[rows["b"]] & (rows["phi"] < -MIN_PENETRATION)
@@ -116,6 +121,9 @@ class LearnedContactProbe(LeafSystem):
         columns = {
             "a": a, "b": b, "p_W_pred": p_W, "n_W_pred": n_W,
             "point_error": np.where(fresh, np.linalg.norm(p_W - rows["p_W_cop_static"][keep], axis=1), np.nan),
+            "one_point_error": np.where(fresh, np.linalg.norm(p_W - rows["p_W_cop_one_point"][keep], axis=1), np.nan),
+            "truth_gap": np.where(fresh, np.linalg.norm(rows["p_W_cop_static"][keep] - rows["p_W_cop_one_point"][keep],
+                                                        axis=1), np.nan),
             "normal_error_deg": np.where(fresh, np.degrees(angle_between(n_W, rows["n_W"][keep])), np.nan),
         }
         bounds = np.searchsorted(owner, np.arange(len(steps) + 1))
@@ -143,7 +151,7 @@ class LearnedContactProbe(LeafSystem):
 def summarize_errors(table: dict, prefix: str = "learned") -> dict:
     """Median, p95, max and worst step of the point [m] and normal [deg] errors."""
     out = {f"{prefix}_rows": int(len(table["a"]))}
-    for column, unit in (("point_error", "m"), ("normal_error_deg", "deg"),
+    for column, unit in (("point_error", "m"), ("one_point_error", "m"), ("truth_gap", "m"), ("normal_error_deg", "deg"),
                          ("shadow_point_error", "m"), ("shadow_normal_error_deg", "deg")):
         values = table[column]
         finite = np.isfinite(values)

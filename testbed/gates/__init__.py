@@ -41,7 +41,9 @@ class KnownLimit:
 class Gate:
     """One verdict. value and threshold are JSON-able (a number, a [low, high] band, a bool or
     an error message); unit names their unit ("m", "x weight", ""). A pinned known limit has
-    `known_limit` set, `threshold` its band and `bound` the gate's own bound it does not meet."""
+    `known_limit` set, `threshold` its band and `bound` the gate's own bound it does not meet.
+    `uncertainty`, where stated, is the reference's own uncertainty on this figure (in the
+    gate's unit): no bound may lie below it (tests/project/test_gate_uncertainty.py)."""
 
     name: str
     passed: bool
@@ -51,6 +53,7 @@ class Gate:
     description: str
     bound: Any = None
     known_limit: Optional[KnownLimit] = None
+    uncertainty: Optional[float] = None
 
     def to_dict(self) -> dict:
         """The gate as metrics.json holds it (testbed/validation/report_schema.json)."""
@@ -58,6 +61,8 @@ class Gate:
                "unit": self.unit, "description": self.description}
         if self.bound is not None:
             out["bound"] = self.bound
+        if self.uncertainty is not None:
+            out["truth_uncertainty"] = float(self.uncertainty)
         if self.known_limit is not None:
             out["known_limit"] = {"pinned": self.known_limit.pinned, "band_factors": list(self.known_limit.factors),
                                   "why": self.known_limit.why}

@@ -11,7 +11,7 @@ from testbed.records import load_table
 from testbed.scenario import load_scenario
 from testbed.simulation import run_scenario, write_run
 
-CONTACT_COLUMNS = {"step", "time", "a", "b", "kind", "p_W_centroid", "p_W_cop", "p_W_cop_static", "n_W", "f_W", "fn", "ft_W",
+CONTACT_COLUMNS = {"step", "time", "a", "b", "kind", "p_W_centroid", "p_W_cop", "p_W_cop_static", "p_W_cop_one_point", "n_W", "f_W", "fn", "ft_W",
                    "area", "phi", "static_age", "p_WA", "q_WA", "p_WB", "q_WB"}
 
 

@@ -12,9 +12,12 @@ rest is contact_log's own records). Every row still carries the columns:
 
   has_truth (k,) bool      True: this row's step was sampled and the truth computed on its
                            own state (never held from an earlier step)
-  p_W_truth, n_W_truth (k, 3) [m], [-]  Drake's pressure-weighted centre of pressure and
-                           unit normal (A -> B) in W; NaN where has_truth is False or Drake
-                           finds no contact surface at that pose
+  p_W_truth, n_W_truth (k, 3) [m], [-]  Drake's centre of pressure (the exact integral of its
+                           pressure field over its contact surface) and unit normal (A -> B)
+                           in W; NaN where has_truth is False or Drake finds no contact
+                           surface at that pose
+  truth_gap (k,) [m]       |p_W_truth - the one-point rule's centre of pressure|: the truth's
+                           own discretisation error at that pose (NaN likewise)
   fn_truth (k,) [N]        Drake's static normal force; NaN where has_truth is False, 0 where
                            sampled and Drake finds no surface
   point_error (k,) [m], normal_error_deg (k,) [deg]  against the learned p_W, n_W; NaN where
@@ -31,21 +34,21 @@ import numpy as np
 from testbed.contact.pair_plant import ContainerPair
 from testbed.contact.surfaces import angle_between, static_pressure, surface_face_arrays
 
-TRUTH_COLUMNS = ("has_truth", "p_W_truth", "n_W_truth", "fn_truth", "point_error", "normal_error_deg")
+TRUTH_COLUMNS = ("has_truth", "p_W_truth", "n_W_truth", "fn_truth", "point_error", "normal_error_deg", "truth_gap")
 
 
 def empty_columns() -> dict:
     """The truth columns of an empty table (see the module docstring)."""
     z3, z = np.zeros((0, 3)), np.zeros(0)
     return {"has_truth": np.zeros(0, dtype=bool), "p_W_truth": z3, "n_W_truth": z3, "fn_truth": z,
-            "point_error": z, "normal_error_deg": z}
+            "point_error": z, "normal_error_deg": z, "truth_gap": z}
 
 
 def absent(k: int) -> dict:
     """The truth columns of k rows on a step that is not sampled."""
     nan3, nan = np.full((k, 3), np.nan), np.full(k, np.nan)
     return {"has_truth": np.zeros(k, dtype=bool), "p_W_truth": nan3, "n_W_truth": nan3.copy(), "fn_truth": nan,
-            "point_error": nan.copy(), "normal_error_deg": nan.copy()}
+            "point_error": nan.copy(), "normal_error_deg": nan.copy(), "truth_gap": nan.copy()}
 
 
 class ShadowTruth:
@@ -75,6 +78,7 @@ class ShadowTruth:
 
         k = len(last["pairs"])
         p_W, n_W, fn = np.full((k, 3), np.nan), np.full((k, 3), np.nan), np.zeros(k)
+        gap = np.full(k, np.nan)
         for row, (i, j) in enumerate(last["pairs"]):
             key = (self._types[i], self._types[j])
             pair = self._pairs.get(key)
@@ -88,9 +92,10 @@ class ShadowTruth:
                 p_W[row] = last["p_WA"][row] + last["R_WA"][row] @ s.cop
                 n_W[row] = last["R_WA"][row] @ (-sign * s.normal)
                 fn[row] = float(np.linalg.norm(s.force))
+                gap[row] = float(np.linalg.norm(s.cop - s.cop_one_point))
         return {"has_truth": np.ones(k, dtype=bool), "p_W_truth": p_W, "n_W_truth": n_W, "fn_truth": fn,
                 "point_error": np.linalg.norm(p_W - last["p_W"], axis=1),
-                "normal_error_deg": np.degrees(angle_between(last["n_W"], n_W))}
+                "normal_error_deg": np.degrees(angle_between(last["n_W"], n_W)), "truth_gap": gap}
 
 
 def summarize_truth(table: dict, every_steps: int) -> dict:
@@ -102,7 +107,9 @@ def summarize_truth(table: dict, every_steps: int) -> dict:
     out = {"closed_loop_rows": int(len(has)), "closed_loop_truth_every_steps": int(every_steps),
            "closed_loop_truth_rows": int(has.sum()),
            "closed_loop_truth_no_surface_rows": int(np.count_nonzero(has & ~(table["fn_truth"] > 0)))}
-    for column, unit in (("point_error", "m"), ("normal_error_deg", "deg")):
+    for column, unit in (("point_error", "m"), ("normal_error_deg", "deg"), ("truth_gap", "m")):
+        if column not in table:
+            continue
         v = table[column][has & np.isfinite(table[column])]
         if v.size:
             name = column.replace("_deg", "")

@@ -65,4 +65,4 @@ def _gate(g: dict) -> Gate:
     known = g.get("known_limit")
     limit = KnownLimit(known["pinned"], tuple(known["band_factors"]), known["why"]) if known else None
     return Gate(f"learned: {g['name']}", g["passed"], g["value"], g["threshold"], g.get("unit", ""),
-                g.get("description", ""), bound=g.get("bound"), known_limit=limit)
+                g.get("description", ""), bound=g.get("bound"), known_limit=limit, uncertainty=g.get("truth_uncertainty"))
