@@ -43,16 +43,10 @@ from learned_contact.data.labels import make_dataset
 from learned_contact.evaluation.metrics import paper_table, point_normal_errors
 from learned_contact.model.encodings import canonicalise, features, octant_signs, paper_outputs
 from learned_contact.sources import load_predictor
+from testbed.contact.surfaces import EXACT_LABEL_TOLERANCE_M, EXACT_NORMAL_TOLERANCE_DEG
 from testbed.gates import KnownLimit, pinned
 
 N_HELD_OUT = 400
-# The truth's own error: the labels' centre of pressure is the exact integral of Drake's pressure field
-# over Drake's contact surface, held to an independent per-triangle quadrature and to the
-# linear-foundation closed form in tests/learned/test_exact_truth.py (1e-9 m); the normal is integrated
-# exactly by both rules (1.3e-10 deg between refined meshes, measured). These are what a gate cannot
-# resolve below.
-EXACT_LABEL_TOLERANCE_M = 1e-9
-EXACT_NORMAL_TOLERANCE_DEG = 1e-9
 OUTSIDE_RANGES = {"max_tilt_deg": 10.0, "max_depth": 0.05}  # training: 5 deg, 0.03 m
 TRAINING_TILT_DEG, TRAINING_DEPTH = 5.0, 0.03
 # Every gate is failed by a simple alternative (tests/learned/test_learned_gates.py): the prior

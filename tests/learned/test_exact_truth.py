@@ -18,8 +18,7 @@ uncertainty; these tests are what it stands on.
 import numpy as np
 import pytest
 
-from learned_contact.evaluation.gates import EXACT_LABEL_TOLERANCE_M
-from testbed.contact.surfaces import face_moments, static_pressure, surface_face_arrays
+from testbed.contact.surfaces import EXACT_LABEL_TOLERANCE_M, face_moments, static_pressure, surface_face_arrays
 
 L_40FT, H_40FT = 12.192, 2.591  # [m] ISO 1AA length and height
 
