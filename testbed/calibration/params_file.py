@@ -29,7 +29,9 @@ def to_fragment(params: CubeTossParams, comment: str = "") -> str:
         "name": "cube_toss",
         "description": "0.1048 m cube on a table; contact values fitted to real tosses (testbed calibrate)",
         "duration": 1.0,
-        "plant": {"time_step": float(params.time_step), "stiction_tolerance": float(params.stiction_tolerance)},
+        "plant": {"time_step": float(params.time_step), "stiction_tolerance": float(params.stiction_tolerance),
+                  **({"contact_surface_representation": params.contact_surface_representation}
+                     if params.contact_surface_representation != "polygon" else {})},
         "ground_surface": {"shape": "slab", "height": float(params.table_height), "size": list(TABLE_SIZE),
                            "contact": {k: float(contact[k]) for k in _GROUND_KEYS}},
         "containers": [{
@@ -78,7 +80,8 @@ def from_fragment(path: str | Path) -> CubeTossParams:
         hydroelastic_modulus=contact.get("hydroelastic_modulus", defaults.hydroelastic_modulus),
         relaxation_time=contact["relaxation_time"], hunt_crossley_dissipation=contact["hunt_crossley_dissipation"],
         hydroelastic_margin=contact.get("hydroelastic_margin", 0.0), table_height=scenario.ground_surface.height,
-        corner_spheres=cube.box.corner_spheres)
+        corner_spheres=cube.box.corner_spheres,
+        contact_surface_representation=scenario.plant.contact_surface_representation)
     try:
         params.check()
     except TestbedError as e:

@@ -28,6 +28,10 @@ from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.simulation import advance
 
 MODELS = ("point", "hydroelastic")
+# Drake's contact_surface_representation: "polygon" (the default: each polygon's force at its
+# centroid) or "triangle" (each polygon split into triangles around its centroid, one point each:
+# half the one-point rule's moment error). The truth ladder's rungs for the tosses.
+REPRESENTATIONS = ("polygon", "triangle")
 APPROXIMATIONS = ("sap", "similar", "lagged", "tamsi")  # 'tamsi' only up to Drake 1.56 (testbed.drake_support)
 FAILED_TOSS_ERROR = 1.0  # [cube widths] charged for a rollout whose solver failed (worse than any real fit)
 
@@ -56,12 +60,17 @@ class CubeTossParams:
     # [m/s] MultibodyPlantConfig.stiction_tolerance: the slip speed below which TAMSI's
     # regularised friction counts as sticking (ignored by SAP, similar, lagged)
     stiction_tolerance: float = 1.0e-4
+    # hydroelastic only: Drake's contact_surface_representation, one of REPRESENTATIONS
+    contact_surface_representation: str = "polygon"
 
     def check(self) -> None:
         if self.model not in MODELS:
             raise TestbedError(f"model: unknown {self.model!r}; expected one of: {', '.join(MODELS)}")
         if self.approximation not in APPROXIMATIONS:
             raise TestbedError(f"approximation: unknown {self.approximation!r}; expected one of: {', '.join(APPROXIMATIONS)}")
+        if self.contact_surface_representation not in REPRESENTATIONS:
+            raise TestbedError(f"contact_surface_representation: unknown {self.contact_surface_representation!r}; "
+                               f"expected one of: {', '.join(REPRESENTATIONS)}")
         missing = missing_approximation(self.approximation)
         if missing:
             raise TestbedError(f"approximation: {missing}")
@@ -112,7 +121,8 @@ class TossSimulator:
         builder = DiagramBuilder()
         config = MultibodyPlantConfig(time_step=self.time_step, contact_model=params.model,
                                       discrete_contact_approximation=params.approximation,
-                                      stiction_tolerance=params.stiction_tolerance)
+                                      stiction_tolerance=params.stiction_tolerance,
+                                      contact_surface_representation=params.contact_surface_representation)
         plant, _ = AddMultibodyPlant(config, builder)
         parser = Parser(plant)
         parser.SetStrictParsing()
