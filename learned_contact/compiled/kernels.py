@@ -51,7 +51,7 @@ _FRAME = np.ascontiguousarray(PAPER_FRAME)
 # numerics, so this file carries a digest of those sources and values: a change to either
 # fails tests/learned/test_learned_compiled.py until the digest here is updated, which
 # changes this file and so recompiles the kernels.
-DEPENDENCY_DIGEST = "7c214b3b07a12722"
+DEPENDENCY_DIGEST = "b196555fadb301af"
 
 
 def dependency_digest() -> str:
@@ -320,8 +320,8 @@ def _unpack_improved(floats, ints):
 
 @njit(cache=True, error_model="numpy")
 def improved_predict(p, R, sA, sB, floats, ints, point, normal, depth):
-    """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): Drake's
-    face-on-face quadrature (learned_contact.compiled.quadrature.face_on_face on the
+    """The improved predictor (predictor.ContactPredictor.predict, outside='clip'): the exact
+    face-on-face centre of pressure (learned_contact.compiled.quadrature.face_on_face on the
     separating-axis normal) where two faces meet (depth >= DOMAIN_DEPTH[0]), handed over by the
     tilt between them (POINT_TILT for the point, NORMAL_TILT for the normal) to the
     learned pipeline, which is evaluated only where a hand-over weight is below 1: the

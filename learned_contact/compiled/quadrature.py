@@ -1,6 +1,7 @@
-"""Drake's face-on-face quadrature for one pose, compiled: the numba twin of
-learned_contact.model.quadrature (face_on_face, hand_over); read that module's docstring
-for what is computed and why.
+"""The exact centre of pressure of a face-on-face contact for one pose, compiled: the numba
+twin of learned_contact.model.quadrature (face_on_face, hand_over); read that module's
+docstring for what is computed and why (the exact integral of Drake's linear pressure over
+its contact surface, not the one-point rule of Drake's discrete solver).
 
 Frames and units as there: A's frame; p (3,) [m] is B's centre in A, R (3, 3) B's axes in
 A (columns), hA, hB (3,) half extents [m], n (3,) the separating-axis normal (unit, A->B,
@@ -27,28 +28,36 @@ What is computed where:
   sides' values at the edge's ends (divided only where a side crosses the edge, stopping
   at the first side it misses), then the strip; a strip of zero weight (faded out) adds
   nothing, its normal is not computed; A's strips share one normal per edge;
+- per polygon, the exact integrals of the pressure and of the pressure times position
+  (fan triangles from the first vertex, the pressure half the overlap below A's face at
+  each vertex); per sliver, its weight and its centre of pressure within the strip model;
 - the weighted means, summed as they come (no per-item storage): the point on the
-  equal-pressure plane half the mean polygon overlap below A's face, and the normal.
+  equal-pressure plane half the polygons' pressure-weighted mean overlap below A's face,
+  and the normal.
 Cost: 1.2 us per pair on 4,096 centred stacks and 1.8 us on 2,048 stacking and general
 poses (learned_contact.evaluation.benchmark: centred_stacks, _poses; best of 9, a 2-core
 VM), against 3.6 and 3.8 us for the form that clipped all 16 pairs and evaluated all 32
-slivers in full.
+slivers in full. Those figures are the one-point form's; the exact integrals cost about the
+same (4,096 centred stacks, the two forms timed in turn in one process, best of 9 per round,
+quietest rounds of 12 on a shared 2-core VM: 1.67 us per pair against 1.65).
 
 The arithmetic follows the numpy reference wherever a result depends on its rounding: the
-clip distances and the polygon vertices, areas and centroids (a resting contact's weights
+clip distances and the polygon vertices, areas and pressure moments (a resting contact's weights
 are area x an overlap of microns under faces a metre high, and an edge clip runs within
 microns of a polygon side, so a reordered sum moves the point by 1e-10 m), the sliver
-interval ends, and the sliver strips' widths, centres and fades (`_dot_lr`,
+interval ends, and the sliver strips' widths, centres, centres of pressure and fades (`_dot_lr`,
 `_dot_c`: the numpy path's sums over A's axes, its einsum on contiguous operands summing
 (x0 y0 + x2 y2) + x1 y1, written in face coordinates). The sums of the weighted means are
 in another order, and the skipped pairs and strips are those whose area or weight is zero
 but for rounding. On 26,624 poses (4,096 centred stacks; the 2,048 stacking and general
 poses; 2,048 each of learned_contact.data.sampling's resting, resting_wide,
 resting_level, resting_wider, resting_support, stacking, general and outside-training
-stacking proposals placed at their depth; 4,096 random tilted stacks) the outputs differ
-from the numpy path's by at most 4.4e-15 m (point), 1.7e-15 (normal), 8.8e-16 relative
-(weight) and 2.2e-16 rad (tilt, np.arccos against math.acos); 55 % of the points, 41 % of
-the normals and 61 % of the weights are bit for bit the same. Where the faces do not
+stacking proposals placed at their depth; 4,096 random tilted stacks) the one-point form
+this replaced differed from the numpy path's by at most 4.4e-15 m (point), 1.7e-15
+(normal), 8.8e-16 relative (weight) and 2.2e-16 rad (tilt, np.arccos against math.acos).
+The exact form, on 3,648 poses (2,048 centred stacks; 400 each of the stacking, general,
+resting and resting_wider labelled sets): at most 4.4e-15 m (point), 4.4e-16 (normal),
+6.1e-16 relative (weight), 1.4e-17 rad (tilt); 34-68 % of the points bit for bit the same. Where the faces do not
 overlap (weight 0) the point is A's face centre and the normal the two face normals'
 bisector, as there.
 
@@ -217,13 +226,18 @@ def _interval(s0, s1, t0, t1):
 
 @njit(cache=True, inline="always", error_model="numpy")
 def _strip(h0, h1, length):
-    """A sliver strip over an edge interval length [m] long, h0, h1 [m] wide at its ends:
-    (area on the 45 deg surface [m^2], the strip centroid's distance from the edge [m],
-    the strip centre's place along the interval (0 at its start, 1 at its end))."""
+    """A sliver strip over an edge interval length [m] long, h0, h1 [m] wide at its ends, the
+    pressure rising linearly across it from the edge (quadrature.face_on_face): (area on the
+    45 deg surface [m^2], the strip centroid's distance from the edge [m] (area x it is the
+    strip's weight), the strip centroid's place along the interval (0 at its start, 1 at its
+    end), the centre of pressure's distance from the edge [m] and its place along the interval)."""
     hs = h0 + h1
     hsum = hs if hs > 0.0 else 1.0
-    return (_SQRT2 * length * 0.5 * hs, (h0 * h0 + h0 * h1 + h1 * h1) / (3.0 * hsum),
-            (h0 + 2.0 * h1) / (3.0 * hsum))
+    h2 = h0 * h0 + h0 * h1 + h1 * h1
+    y_bar = h2 / (3.0 * hsum)
+    h2 = h2 if h2 > 0.0 else 1.0
+    return (_SQRT2 * length * 0.5 * hs, y_bar, (h0 + 2.0 * h1) / (3.0 * hsum),
+            hsum * (h0 * h0 + h1 * h1) / (2.0 * h2), (h0 * h0 + 2.0 * h0 * h1 + 3.0 * h1 * h1) / (4.0 * h2))
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -284,15 +298,15 @@ def face_tilt(R, n):
 
 @njit(cache=True, error_model="numpy")
 def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
-    """Drake's centre of pressure and normal of B's face pressed on A's face, for one pose
+    """The exact centre of pressure and the normal of B's face pressed on A's face, for one pose
     (quadrature.face_on_face, whose docstring says what and why; faces picked by n as
     quadrature.faces does).
 
     p (3,) [m] B's centre in A, R (3, 3) B's axes in A (columns), hA, hB (3,) half extents
     [m], n (3,) unit A->B in A; frame, planes, items, poly: `face_on_face_scratch()`. Fills point (3,)
     [m] in A (on the equal-pressure surface) and normal (3,) (unit, A->B, in A); returns
-    (weight [m^3]: sum of area x overlap at the centroids, 0 where the faces do not
-    overlap; tilt [rad] between the two faces)."""
+    (weight [m^3]: the integral of the pressure (half the overlap) over the polygons and
+    the slivers, 0 where the faces do not overlap; tilt [rad] between the two faces)."""
     a, sigma_A, m, s_B = _faces(R, n)
     uA, vA, uB, vB = (a + 1) % 3, (a + 2) % 3, (m + 1) % 3, (m + 2) % 3
     U, V, L = hA[uA], hA[vA], hA[a]  # A's face: |u| <= U, |v| <= V at height L
@@ -372,27 +386,35 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
                 count, src = _clip(poly, src, count, n0, n1, n2, limit, items)
             if count < 3:
                 continue
-            # quadrature._area_centroid: fan from the first vertex, areas summed left to right
-            total, f0, f1, f2 = -0.0, 0.0, 0.0, 0.0
+            # quadrature._pressure_moments: fan from the first vertex, the pressure (half the
+            # overlap below A's face, linear) integrated exactly over each triangle
+            q0, q1, q2 = poly[src, 0, 0], poly[src, 0, 1], poly[src, 0, 2]
+            pa = 0.5 * (L - sigma_A * poly[src, 0, a])
+            total, wt, f0, f1, f2 = -0.0, 0.0, 0.0, 0.0, 0.0
             for t in range(count - 2):
-                e10, e11, e12 = poly[src, t + 1, 0] - poly[src, 0, 0], poly[src, t + 1, 1] - poly[src, 0, 1], poly[src, t + 1, 2] - poly[src, 0, 2]
-                e20, e21, e22 = poly[src, t + 2, 0] - poly[src, 0, 0], poly[src, t + 2, 1] - poly[src, 0, 1], poly[src, t + 2, 2] - poly[src, 0, 2]
+                y0, y1, y2 = poly[src, t + 1, 0], poly[src, t + 1, 1], poly[src, t + 1, 2]
+                z0, z1, z2 = poly[src, t + 2, 0], poly[src, t + 2, 1], poly[src, t + 2, 2]
+                e10, e11, e12 = y0 - q0, y1 - q1, y2 - q2
+                e20, e21, e22 = z0 - q0, z1 - q1, z2 - q2
                 x0, x1, x2 = e11 * e22 - e12 * e21, e12 * e20 - e10 * e22, e10 * e21 - e11 * e20
                 area = 0.5 * math.sqrt((x0 * x0 + x1 * x1) + x2 * x2)
+                pb = 0.5 * (L - sigma_A * poly[src, t + 1, a])
+                pc = 0.5 * (L - sigma_A * poly[src, t + 2, a])
+                ps = (pa + pb) + pc
                 total += area
-                f0 += area * (poly[src, 0, 0] + (e10 + e20) / 3.0)
-                f1 += area * (poly[src, 0, 1] + (e11 + e21) / 3.0)
-                f2 += area * (poly[src, 0, 2] + (e12 + e22) / 3.0)
+                wt += area * ps
+                f0 += area * ((((ps * ((q0 + y0) + z0)) + pa * q0) + pb * y0) + pc * z0)
+                f1 += area * ((((ps * ((q1 + y1) + z1)) + pa * q1) + pb * y1) + pc * z1)
+                f2 += area * ((((ps * ((q2 + y2) + z2)) + pa * q2) + pb * y2) + pc * z2)
             if not total > 0.0:
                 continue
-            c0, c1, c2 = f0 / total, f1 / total, f2 / total
-            overlap = max(L - ((c0 * nA[0] + c1 * nA[1]) + c2 * nA[2]), 0.0)
-            w = total * 0.5 * overlap  # pressure at the equal-pressure plane: half the overlap deep
+            w = wt / 3.0  # the integral of the pressure
             weight += w
             w_poly += w
-            depth_sum += w * overlap
-            sum_u += w * (c0 if uA == 0 else (c1 if uA == 1 else c2))
-            sum_v += w * (c0 if vA == 0 else (c1 if vA == 1 else c2))
+            mom_a = (f0 if a == 0 else (f1 if a == 1 else f2)) / 12.0  # the first moment along A's axis a
+            depth_sum += sigma_A * mom_a
+            sum_u += (f0 if uA == 0 else (f1 if uA == 1 else f2)) / 12.0
+            sum_v += (f0 if vA == 0 else (f1 if vA == 1 else f2)) / 12.0
     sum_n0, sum_n1, sum_n2 = 0.0, 0.0, 0.0
     # B's slivers: B's edge j, inside the overlap (below A's face), clipped by A's triangle i
     for j in range(4):
@@ -419,7 +441,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             h0 = 0.5 * max(L - u2, 0.0)  # the strip's width at each end [m]: half the overlap
             h1 = 0.5 * max(L - v2, 0.0)
             l0, l1, l2 = v0 - u0, v1 - u1, v2 - u2
-            area, y_bar, along = _strip(h0, h1, math.sqrt(_dot_lr(l0, l1, l2, l0, l1, l2, a)))
+            area, y_bar, along, y_p, along_p = _strip(h0, h1, math.sqrt(_dot_lr(l0, l1, l2, l0, l1, l2, a)))
             x0, x1, x2 = u0 + along * l0, u1 + along * l1, u2 + along * l2  # the strip's centre on the edge
             w = area * y_bar * _fade(min(U - abs(x0), V - abs(x1)), max(L - x2, 0.0))
             if not w > 0.0:
@@ -431,8 +453,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             d = max(math.sqrt(_dot_lr(d0, d1, d2, d0, d1, d2, a)), 1e-12)
             d0, d1, d2 = d0 / d, d1 / d, d2 / d
             weight += w
-            sum_u += w * (x0 + y_bar * d0)
-            sum_v += w * (x1 + y_bar * d1)
+            sum_u += w * ((u0 + along_p * l0) + y_p * d0)  # the strip's centre of pressure
+            sum_v += w * ((u1 + along_p * l1) + y_p * d1)
             # the normal: A's face normal plus B's side face's inward normal (in B's face plane)
             s = (d0 * nB0 + d1 * nB1) + d2 * nB2
             d0, d1, d2 = d0 - s * nB0, d1 - s * nB1, d2 - s * nB2
@@ -468,7 +490,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             h0 = 0.5 * max(_dot_c(nB0, nB1, nB2, o0 - u0, o1 - u1, o2 - L, a) / facing, 0.0)
             h1 = 0.5 * max(_dot_c(nB0, nB1, nB2, o0 - v0, o1 - v1, o2 - L, a) / facing, 0.0)
             l0, l1 = v0 - u0, v1 - u1
-            area, y_bar, along = _strip(h0, h1, abs(l0 + l1))  # the edge runs along u or v
+            area, y_bar, along, y_p, along_p = _strip(h0, h1, abs(l0 + l1))  # the edge runs along u or v
             x0, x1 = u0 + along * l0, u1 + along * l1
             q0, q1, q2 = x0 - p0, x1 - p1, L - p2  # how far inside B's face rectangle (in B's frame)
             qu = _dot_lr(bu0, bu1, bu2, q0, q1, q2, a)
@@ -478,8 +500,8 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
             if not w > 0.0:
                 continue
             weight += w
-            sum_u += w * (x0 - y_bar * ou)
-            sum_v += w * (x1 - y_bar * ov)
+            sum_u += w * ((u0 + along_p * l0) - y_p * ou)
+            sum_v += w * ((u1 + along_p * l1) - y_p * ov)
             sum_n0 += w * m0
             sum_n1 += w * m1
             sum_n2 += w * m2
@@ -490,7 +512,7 @@ def face_on_face(p, R, hA, hB, n, frame, planes, items, poly, point, normal):
     length = math.sqrt((main0 * main0 + main1 * main1) + main2 * main2)
     main = (main0 / length, main1 / length, main2 / length)
     safe = weight if weight > 0.0 else 1.0
-    depth_at = depth_sum / (w_poly if w_poly > 0.0 else 1.0)
+    depth_at = L - depth_sum / w_poly if w_poly > 0.0 else 0.0  # the polygons' pressure-weighted mean overlap
     point[uA], point[vA], point[a] = sum_u / safe, sum_v / safe, sigma_A * (L - 0.5 * depth_at)
     n0 = w_poly * main[uA] + sum_n0
     n1 = w_poly * main[vA] + sum_n1

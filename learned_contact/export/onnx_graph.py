@@ -412,18 +412,23 @@ def batch_shape(g: Graph, like, dims):
     return g.op("Concat", n, g.i(list(dims)), axis=0)
 
 
-def area_centroid(g: Graph, poly, count):
-    """quadrature._area_centroid: (area (N, 1) [m^2], centroid (N, 3) [m]) of convex polygons
-    poly (N, V, 3) with count (N, 1) vertices, fan-triangulated from their first vertex."""
+def pressure_moments(g: Graph, poly, count, face_level, nA):
+    """quadrature._pressure_moments: (weight (N, 1) [m^3], moment (N, 3) [m^4]) of convex
+    polygons poly (N, V, 3) with count (N, 1) vertices, the exact integrals of p dA and p x dA
+    for p = (face_level (N, 1) - x . nA (N, 3)) / 2 (fan triangles from the first vertex)."""
     V = MAX_VERTS
     v0 = g.take(poly, [0], 1)
-    e1, e2 = g.sub(g.take(poly, list(range(1, V - 1)), 1), v0), g.sub(g.take(poly, list(range(2, V)), 1), v0)
+    v1, v2 = g.take(poly, list(range(1, V - 1)), 1), g.take(poly, list(range(2, V)), 1)
     ok = g.op("Cast", g.op("Less", g.i(np.arange(2, V)[None, :]), count), to=_onnx_type(g.dt))
-    area = g.mul(g.mul(g.f(0.5), norm(g, cross(g, e1, e2), keep=0)), ok)  # (N, V - 2)
-    centre = g.add(v0, g.div(g.add(e1, e2), g.f(3.0)))
-    total = g.rsum(area, 1, keep=1)
-    moment = g.rsum(g.mul(g.unsq(area, [2]), centre), 1)
-    return total, g.div(moment, g.where(g.op("Greater", total, g.f(0.0)), total, g.f(1.0)))
+    area = g.mul(g.mul(g.f(0.5), norm(g, cross(g, g.sub(v1, v0), g.sub(v2, v0)), keep=0)), ok)  # (N, V - 2)
+    p = g.mul(g.f(0.5), g.sub(face_level, dot(g, poly, g.unsq(nA, [1]))))  # (N, V) at the vertices
+    p0, p1, p2 = g.take(p, [0], 1), g.take(p, list(range(1, V - 1)), 1), g.take(p, list(range(2, V)), 1)
+    s = g.add(g.add(p0, p1), p2)  # (N, V - 2)
+    weight = g.div(g.rsum(g.mul(area, s), 1, keep=1), g.f(3.0))
+    u = lambda x: g.unsq(x, [2])  # noqa: E731
+    m = g.add(g.add(g.add(g.mul(u(s), g.add(g.add(v0, v1), v2)), g.mul(u(p0), v0)), g.mul(u(p1), v1)), g.mul(u(p2), v2))
+    moment = g.div(g.rsum(g.mul(u(area), m), 1), g.f(12.0))
+    return weight, moment
 
 
 def _inward(g: Graph, e0, e1, centre, nA):
@@ -523,10 +528,10 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         nrm = g.reshape(g.op("Expand", g.unsq(gvec, [axis]), shape16_3), [-1, 3])
         lim = g.reshape(g.op("Expand", g.unsq(c, [axis]), shape16), [-1, 1])
         poly, count = clip_halfspace(g, poly, count, nrm, lim)
-    area, centroid = area_centroid(g, poly, count)
-    centroid = g.reshape(centroid, [-1, 16, 3])
-    overlap = g.op("Max", g.sub(face_level, dot(g, centroid, nA3)), zero)  # (n, 16)
-    w = g.mul(g.mul(g.reshape(area, [-1, 16]), g.f(0.5)), overlap)
+    # the pressure (half the overlap below A's face, linear on each polygon) integrated exactly
+    w, moment = pressure_moments(g, poly, count, g.reshape(g.op("Expand", g.unsq(face_level, [2]), shape16), [-1, 1]),
+                                 g.reshape(g.op("Expand", nA4, shape16_3), [-1, 3]))
+    w, moment = g.reshape(w, [-1, 16]), g.reshape(moment, [-1, 16, 3])
     n_Bout = g.mul(s_B, b_m)  # (n, 3) B's face normal, towards A
     main_normal = g.sub(normal_A, n_Bout)
     main_normal = g.div(main_normal, norm(g, main_normal))
@@ -579,9 +584,17 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         hh = g.add(h0, h1)
         hsum3 = g.mul(g.f(3.0), g.where(g.op("Greater", hh, zero), hh, one))
         area_s = g.mul(g.mul(g.mul(g.f(np.sqrt(2.0)), length), g.f(0.5)), hh)
-        y_bar = g.div(g.add(g.add(g.mul(h0, h0), g.mul(h0, h1)), g.mul(h1, h1)), hsum3)
+        h2 = g.add(g.add(g.mul(h0, h0), g.mul(h0, h1)), g.mul(h1, h1))
+        y_bar = g.div(h2, hsum3)
         along_t = g.div(g.add(h0, g.mul(g.f(2.0), h1)), hsum3)
         x_c = g.add(x0, g.mul(g.unsq(along_t, [3]), g.sub(x1, x0)))
+        # the strip's centre of pressure (quadrature.face_on_face: y_p, x_s)
+        h2 = g.where(g.op("Greater", h2, zero), h2, one)
+        hsum = g.where(g.op("Greater", hh, zero), hh, one)
+        y_p = g.div(g.mul(hsum, g.add(g.mul(h0, h0), g.mul(h1, h1))), g.mul(g.f(2.0), h2))
+        along_p = g.div(g.add(g.add(g.mul(h0, h0), g.mul(g.mul(g.f(2.0), h0), h1)), g.mul(g.mul(g.f(3.0), h1), h1)),
+                        g.mul(g.f(4.0), h2))
+        x_s = g.add(x0, g.mul(g.unsq(along_p, [3]), g.sub(x1, x0)))
         direction = g.sub(g.unsq(inward_centre, [1, 2]), x_c)
         direction = g.sub(direction, g.mul(dot(g, direction, nA4, 1), nA4))
         edge = g.div(span, g.op("Max", norm(g, span), g.f(1e-12)))
@@ -599,7 +612,7 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         u_f = g.clip(g.div(inside, g.where(g.op("Greater", o_c, zero), o_c, one)), zero, one)
         fade = g.mul(g.mul(u_f, u_f), g.sub(g.f(3.0), g.mul(g.f(2.0), u_f)))
         weight_s = g.mul(g.mul(area_s, y_bar), fade)
-        centre_s = g.add(x_c, g.mul(g.unsq(y_bar, [3]), direction))
+        centre_s = g.add(x_s, g.mul(g.unsq(y_p, [3]), direction))
         if own == "B":  # B's side face's inward normal lies in B's face plane
             w_B = g.sub(direction, g.mul(dot(g, direction, nB4, 1), nB4))
             w_B = g.div(w_B, g.op("Max", norm(g, w_B), g.f(1e-12)))
@@ -610,12 +623,16 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
                         g.reshape(g.div(normal_s, g.op("Max", norm(g, normal_s), g.f(1e-300))), [-1, 16, 3])))
     (wB, cB_s, nB_s), (wA, cA_s, nA_s) = slivers
     w_all = g.op("Concat", w, wB, wA, axis=1)  # (n, 48)
-    c_all = g.op("Concat", centroid, cB_s, cA_s, axis=1)
     weight = g.rsum(w_all, 1, keep=1)
     safe = g.where(g.op("Greater", weight, zero), weight, one)
-    point = g.div(g.rsum(g.mul(g.unsq(w_all, [2]), c_all), 1), safe)
+    sliver_moment = g.rsum(g.mul(g.unsq(g.op("Concat", wB, wA, axis=1), [2]), g.op("Concat", cB_s, cA_s, axis=1)), 1)
+    moment_sum = g.rsum(moment, 1)  # (n, 3)
+    point = g.div(g.add(moment_sum, sliver_moment), safe)
+    # the polygons' pressure-weighted mean overlap
     w_sum = g.rsum(w, 1, keep=1)
-    depth_at = g.div(g.rsum(g.mul(w, overlap), 1, keep=1), g.where(g.op("Greater", w_sum, zero), w_sum, one))
+    main_meet = g.op("Greater", w_sum, zero)
+    depth_at = g.where(main_meet, g.sub(face_level, g.div(dot(g, moment_sum, normal_A, 1), g.where(main_meet, w_sum, one))),
+                       zero)
     point = g.add(g.sub(point, g.mul(dot(g, point, normal_A, 1), normal_A)),
                   g.mul(g.sub(face_level, g.mul(g.f(0.5), depth_at)), normal_A))
     sl = lambda sw, v: g.rsum(g.mul(g.unsq(sw, [2]), v), 1)  # noqa: E731
