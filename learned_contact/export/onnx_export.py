@@ -29,11 +29,11 @@ What the exported graphs hold (standard ONNX operators, opset 17, no custom ops)
   and the correction of the prior, with the octant-plane blend of encodings.frame_blend
   (the poses within SYMMETRY_BAND of one of A's planes answered in the neighbouring
   frames too, gathered into one batch and summed back with ScatterND), clipped outside
-  the domain. Drake's face-on-face quadrature (model.quadrature.face_on_face, on the
+  the domain. The exact face-on-face integral (model.quadrature.face_on_face, on the
   separating-axis normal of the pose as given): the faces that meet, the two 4-triangle
   fans, the 16 polygons (B's triangle j clipped by the three sides of A's triangle i, by
   A's face plane and by the two 45 deg trims) clipped as one (16 n, 9, 3) batch with
-  the fixed 9-vertex budget, their areas, centroids and overlaps, the 32 sliver strips
+  the fixed 9-vertex budget, their exact pressure moments (fan triangles), the 32 sliver strips
   (edges clipped in the parameter t by the other face's triangle and the overlap),
   the weighted point and normal, the tilt (arccos: float32 Acos refined by two float64
   Newton steps, onnxruntime having no float64 Acos; within 1e-14 rad over the
@@ -221,7 +221,7 @@ def improved_graph(predictor):
     ok = g.op("And", g.op("Greater", length, g.f(1e-9)), g.op("Not", g.op("IsInf", length)))
     normal = g.where(ok, g.div(normal, g.where(ok, length, g.f(1.0))), sat_n)
     point = _clip_outside(g, point, depth, hA0)
-    # Drake's face-on-face quadrature (learned_contact.model.quadrature), handed over to the
+    # the exact face-on-face integral (learned_contact.model.quadrature), handed over to the
     # learned answer above as the faces tilt; 0 below DOMAIN_DEPTH[0] and where the faces miss
     q_point, q_normal, q_weight, tilt = og.face_on_face(g, p0, R0, hA0, hB0, sat_n)
     meet = g.op("And", g.op("GreaterOrEqual", depth, g.f(DOMAIN_DEPTH[0])), g.op("Greater", q_weight, g.f(0.0)))

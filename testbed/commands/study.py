@@ -1,4 +1,4 @@
-"""`testbed study sim|query|stability|defaults|scale`: one study on its own, written to a directory."""
+"""`testbed study sim|query|stability|defaults|scale|truth`: one study on its own, written to a directory."""
 
 from __future__ import annotations
 
@@ -15,11 +15,12 @@ DEFAULT_TOSS_DATA = Path(__file__).resolve().parents[1] / "calibration" / "cube_
 
 NAME = "study"
 HELP = ("one study on its own: sim (time step x model x approximation), query, stability, defaults (contact settings "
-        "judged over hard cases) or scale (what a yard of N containers costs with each contact model)")
+        "judged over hard cases), scale (what a yard of N containers costs with each contact model) or truth (how far each "
+        "scene's default truth is from a converged one, and what each rung of the truth ladder costs)")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("which", choices=["sim", "query", "stability", "defaults", "scale"])
+    parser.add_argument("which", choices=["sim", "query", "stability", "defaults", "scale", "truth"])
     parser.add_argument("--scene", default="two_stack", help="scene of the sim study (default two_stack)")
     parser.add_argument("--out", help="output directory (default reports/study-<which>-<time>)")
     parser.add_argument("--quick", action="store_true", help="a small grid (about a minute)")
@@ -44,6 +45,13 @@ def add_arguments(parser) -> None:
                        help="where the cells run: sequential (default, in this process: undisturbed timings), local "
                             "(--workers processes) or ray (validate's executors; cells side by side share the machine)")
     scale.add_argument("--address", help="Ray cluster address for --executor ray (default: a local Ray started here)")
+    truth = parser.add_argument_group("truth study (testbed/studies/truth/; --duration [s] replaces every scene's)")
+    truth.add_argument("--scenes", help="comma-separated scene names or files (default: the overhang pair, two_stack, "
+                                        "single_drop, crane_hard_landing, stack_slide_rest, crane_edge_landing; "
+                                        "--quick overhang_hold,two_stack for 0.1 s)")
+    truth.add_argument("--rungs", help="comma-separated, some of polygon,triangle,half_step,refined_L1,refined_L2,"
+                                       "continuous (default all)")
+    truth.add_argument("--accuracies", help="error-control accuracies of the continuous rung (default 1e-3,1e-4)")
     sweep.add_argument("--toss-data", default=str(DEFAULT_TOSS_DATA),
                        help="real cube tosses for the toss criterion (default: the shipped even-numbered "
                             "DAIR Lab tosses, testbed/calibration/cube_tosses/even.npz)")
@@ -57,6 +65,8 @@ def run(args) -> int:
         load_tosses(args.toss_data)  # checked before anything is written: CalibrationDataError -> exit 2
     if args.which == "scale":
         _scale(args, out)  # makes `out` once its options are checked
+    elif args.which == "truth":
+        _truth(args, out)  # makes `out` once its options and scenes are checked
     else:
         out.mkdir(parents=True, exist_ok=True)
         {"stability": _stability, "query": _query, "sim": _sim, "defaults": _defaults}[args.which](args, out)
@@ -175,6 +185,37 @@ def _scale(args, out: Path) -> None:
         study = scale.run_study(config, map_cells=cells, executor=args.executor)
     scale.write_report(study, out)
     print("\n".join(scale.summary_lines(study)))
+
+
+def _truth(args, out: Path) -> None:
+    """The truth ladder: options checked (TestbedError), scenes loaded and built (ScenarioError)
+    before anything runs or is written; the meshes cached under <out>/mesh_cache."""
+    import math
+
+    from testbed.studies.truth import report, run, rungs
+
+    chosen = _choices(args.rungs, "--rungs", rungs.RUNGS, rungs.RUNGS)
+    accuracies = _floats(args.accuracies, "--accuracies", rungs.DEFAULT_ACCURACIES)
+    if any(not a < 1 for a in accuracies) or len(set(accuracies)) != len(accuracies):
+        raise TestbedError(f"--accuracies: expected distinct numbers below 1, got {list(accuracies)}")
+    if args.duration is not None and not (math.isfinite(args.duration) and 0 < args.duration <= 3600):
+        raise TestbedError(f"--duration: expected a number of seconds in (0, 3600], got {args.duration}")
+    names = [n.strip() for n in args.scenes.split(",") if n.strip()] if args.scenes else \
+        list(run.QUICK_SCENES if args.quick else run.FULL_SCENES)
+    if not names:
+        raise TestbedError(f"--scenes: expected comma-separated scene names, got {args.scenes!r}")
+    scenes = run.load_scenes(names, args.duration, args.quick)  # ScenarioError -> exit 2, nothing written
+
+    def on_rung(scene, row):
+        if not args.quiet:
+            wall = f"{row['wall_s']:.2f} s" if row["wall_s"] is not None else row["error"][:100]
+            print(f"  {scene} / {row['rung']}: {row['status']}, {wall}", flush=True)
+
+    out.mkdir(parents=True, exist_ok=True)
+    study = run.run_loaded(scenes, rungs=chosen, accuracies=accuracies, quick=args.quick,
+                           cache_dir=out / "mesh_cache", on_rung=on_rung)
+    report.write_report(study, out)
+    print("\n".join(report.summary_lines(study)))
 
 
 def _floats(text, option: str, default, minimum: float | None = None) -> tuple[float, ...]:

@@ -1,5 +1,5 @@
 """Exact where the geometry is exact (issue 30): where two faces meet the improved predictor
-answers with Drake's own face-on-face quadrature (learned_contact.model.quadrature): on a level
+answers with the exact integral of Drake's face-on-face pressure (learned_contact.model.quadrature): on a level
 face on a face (the overlap a slab of one depth) that is the centre of the overlap region with
 A's face normal, moved by micrometres by the edge slivers Drake's mesh adds; on all three paths
 (numpy, numba, ONNX), at any yaw and offset. As the faces tilt it hands over to the learned

@@ -43,9 +43,8 @@ DEPTH_TOLERANCE = 1e-7  # [m] float32 rounding of a depth below 0.1 m is < 4e-9 
 
 
 def _reference(kind):
-    """The predictor an export is held to: its numpy reference path (the improved predictor's
-    face-on-face quadrature, commit ed1b46d, is not yet in its compiled path; the paper's
-    compiled path agrees with its numpy one to rounding)."""
+    """The predictor an export is held to: its numpy reference path (the compiled paths agree
+    with it to rounding: tests/learned/test_learned_compiled.py)."""
     return load_predictor(kind, compiled=False)
 
 

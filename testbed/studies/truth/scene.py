@@ -30,7 +30,7 @@ from testbed.builder import BuiltScene, SceneAssembly, _connect_forces, check_in
 from testbed.effects import ModelPlan
 from testbed.scenario import Scenario, checked_effects
 
-_BOX_IN_COLLISION = re.compile(r"(<collision\b[^>]*>.*?<geometry>)\s*<box>.*?</box>\s*(</geometry>)", re.S)
+_BOX_IN_COLLISION = re.compile(r"(<collision\b[^>]*>(?:(?!</collision>).)*?<geometry>)\s*<box>.*?</box>\s*(</geometry>)", re.S)
 
 
 class _PlantView:
