@@ -6,7 +6,9 @@ probes, wind, viewers, learned predictors, cranes) is added by effect modules.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import re
 
 import numpy as np
 from pydrake.geometry import SceneGraph
@@ -17,6 +19,7 @@ from pydrake.multibody.plant import (
     ExternallyAppliedSpatialForceMultiplexer,
     MultibodyPlant,
 )
+from pydrake.systems.analysis import SimulatorConfig
 from pydrake.systems.framework import Diagram, DiagramBuilder
 
 from testbed.bodies import models as model_loading
@@ -75,10 +78,57 @@ class BuiltScene:
         return [s.get_name() for s in self.diagram.GetSystems()]
 
 
-def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene:
+class _PlantView:
+    """The plant as effects see it on a continuous plant: every attribute is the plant's, except
+    time_step() [s], the scenario's plant.time_step: the period effects schedule their events at
+    (the contact log's records, the crane's locks)."""
+
+    def __init__(self, plant, period: float):
+        self._plant, self._period = plant, float(period)
+
+    def time_step(self) -> float:
+        return self._period
+
+    def __getattr__(self, name):
+        return getattr(self._plant, name)
+
+
+_BOX_IN_COLLISION = re.compile(r"(<collision\b[^>]*>(?:(?!</collision>).)*?<geometry>)\s*<box>.*?</box>\s*(</geometry>)", re.S)
+
+
+def with_mesh(sdf_text: str, vtk_path) -> str:
+    """SDF text whose collision boxes are the volume mesh at `vtk_path` (an absolute file path),
+    keeping the collision's proximity properties (compliance, modulus, dissipation, friction)."""
+    uri = f"file://{vtk_path}"
+    text, n = _BOX_IN_COLLISION.subn(lambda m: f"{m.group(1)}<mesh><uri>{uri}</uri></mesh>{m.group(2)}", sdf_text)
+    if n == 0:
+        raise ValueError("no collision <box> in the body's SDF to replace with a mesh")
+    return text
+
+
+def continuous_simulator(accuracy: float, max_step: float) -> SimulatorConfig:
+    """The integrator of a continuous-time truth: RungeKutta3 with error control at `accuracy`,
+    steps of at most `max_step` [s] (the scene's discrete step: events keep their period)."""
+    return SimulatorConfig(integration_scheme="runge_kutta3", accuracy=float(accuracy), use_error_control=True,
+                           max_step_size=float(max_step), publish_every_time_step=False)
+
+
+def build_scene(scenario: Scenario, source: object = "<scenario>", *, continuous_accuracy: float | None = None,
+                meshes: dict | None = None) -> BuiltScene:
     """Builds the diagram with the effects that were checked (testbed.scenario.checked_effects:
     those load_scenario checked, else checked now). Raises ScenarioError for invalid scenes
-    (overlaps included)."""
+    (overlaps included).
+
+    Two truth rungs (docs/truth.md) are built here too, never from a scene file alone:
+    continuous_accuracy: a continuous-time plant (time_step 0) with triangle contact surfaces
+    (Drake's continuous plant integrates each triangle's moment exactly) and unsampled output
+    ports, run by continuous_simulator(continuous_accuracy, plant.time_step); effects see the
+    scenario's plant.time_step as the plant's step (_PlantView). meshes: {container size (3,)
+    tuple [m]: .vtk path}: that size's collision box replaced by the volume mesh (a refined
+    compliant mesh)."""
+    if continuous_accuracy is not None:
+        scenario = copy.copy(scenario)
+        scenario.simulator = continuous_simulator(continuous_accuracy, scenario.plant.time_step)
     effects = checked_effects(scenario, source)
     plan = ModelPlan()
     for effect in effects.values():
@@ -91,6 +141,8 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
     config = type(config)(**{f.name: getattr(config, f.name) for f in config.__fields__})
     config.contact_model = plan.contact_model
     config.discrete_contact_approximation = plan.discrete_contact_approximation
+    if continuous_accuracy is not None:
+        config.time_step, config.contact_surface_representation, config.use_sampled_output_ports = 0.0, "triangle", False
     builder = DiagramBuilder()
     plant, scene_graph = AddMultibodyPlant(config, builder)
     plant.set_name("plant")
@@ -101,8 +153,12 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
         ground_text = model_loading.scene_ground_sdf(scenario.ground_surface, collision=plan.collision, properties=properties)
         (ground,) = parser.AddModelsFromString(ground_text, "sdf")
         bodies[GROUND_NAME] = plant.GetBodyByName("slab", ground)
+    meshes = meshes or {}
     for spec in scenario.containers:
         text = model_loading.scene_body_sdf(spec, collision=plan.collision, properties=properties)  # container or box
+        mesh = meshes.get(tuple(float(v) for v in spec.container_type().size)) if meshes else None
+        if mesh is not None and plan.collision:
+            text = with_mesh(text, mesh)
         (instance,) = parser.AddModelsFromString(text, "sdf")
         body = plant.GetBodyByName("body", instance)
         bodies[spec.name] = body
@@ -112,8 +168,9 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
             plant.SetDefaultFloatingBaseBodyPose(body, spec.pose())
     plant.Finalize()
 
+    seen = plant if config.time_step > 0 else _PlantView(plant, scenario.plant.time_step)
     assembly = SceneAssembly(
-        scenario=scenario, builder=builder, plant=plant, scene_graph=scene_graph,
+        scenario=scenario, builder=builder, plant=seen, scene_graph=scene_graph,
         body_names=list(bodies), bodies=bodies, plan=plan,
     )
     for name, effect in effects.items():
@@ -127,7 +184,7 @@ def build_scene(scenario: Scenario, source: object = "<scenario>") -> BuiltScene
         body_names=assembly.body_names, bodies=bodies, effects=effects,
         free_names=[c.name for c in scenario.containers if not c.fixed],
     )
-    if plan.collision:
+    if plan.collision and not meshes:  # point-pair penetration needs boxes (a mesh rung's box twin is checked)
         check_initial_overlap(scene, source)
     return scene
 

@@ -139,6 +139,24 @@ def _default_containers() -> list[ContainerSpec]:
     return [ContainerSpec(name="box", type="1CC", mass=20000.0, X_WC=Transform(translation=[0, 0, h / 2]))]
 
 
+TRUTH_REFERENCES = ("discrete", "continuous")
+
+
+@dataclasses.dataclass
+class TruthSpec:
+    """The ground truth this scene's closed loop is judged against (docs/truth.md).
+
+    reference: "discrete" (the scene's plant as given: Drake's discrete solver, each contact
+    polygon's force at its centroid) or "continuous" (the converged rung: a continuous-time plant
+    with triangle contact surfaces, whose moments Drake integrates exactly, RungeKutta3 with error
+    control at `accuracy`; `testbed study truth` shows where the discrete answer is mesh- or
+    step-sensitive and what the continuous one costs). The scene's own runs (`testbed run`) and
+    Drake's runs in engine comparisons keep the discrete plant."""
+
+    reference: str = "discrete"
+    accuracy: float = 1e-3  # [-] the integrator's error-control accuracy (continuous only)
+
+
 @dataclasses.dataclass
 class Scenario:
     """A whole scene. `Scenario()` is the always-valid "defaults" scene."""
@@ -155,6 +173,7 @@ class Scenario:
     # yard blocks (testbed/bodies/yards.py), expanded into `containers` by validate_scenario
     yards: typing.List[YardSpec] = dataclasses.field(default_factory=list)
     effects: Effects = dataclasses.field(default_factory=_default_effects)
+    truth: TruthSpec = dataclasses.field(default_factory=TruthSpec)
 
     def declared_effects(self) -> list[str]:
         """Names of the declared effects, in build order."""
@@ -315,6 +334,12 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
     if not scenario.plant.time_step > 0:
         raise ScenarioError(source, "plant.time_step", "expected a positive discrete time step [s] (continuous plants "
                                                        f"are not supported), got {scenario.plant.time_step}")
+    if scenario.truth.reference not in TRUTH_REFERENCES:
+        raise ScenarioError(source, "truth.reference", f"unknown {scenario.truth.reference!r}; expected one of: "
+                                                       f"{', '.join(TRUTH_REFERENCES)}")
+    if not 1e-8 <= scenario.truth.accuracy <= 0.1:
+        raise ScenarioError(source, "truth.accuracy", f"expected an error-control accuracy in [1e-08, 0.1], got "
+                                                      f"{scenario.truth.accuracy}")
     expand_yards(scenario, source)
     if not scenario.containers:
         raise ScenarioError(source, "containers", "expected at least one container")

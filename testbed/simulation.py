@@ -107,7 +107,7 @@ def record_run(scene: BuiltScene, duration: float, every: int) -> Trajectory:
     if system is not None:
         system.reset_costs()  # count only the timed steps below, not the build or Initialize
     bodies = [scene.bodies[n] for n in scene.free_names]
-    h = plant.time_step()
+    h = scene.scenario.plant.time_step  # [s] the record grid (a continuous truth rung: its event period)
     rows = []
 
     def record(_t=None):

@@ -162,6 +162,13 @@ def format_figures(f: dict, out=None) -> str:
                "default, at which it was fitted and judged; the truth is made as soft as the law it is compared with "
                "(docs/commands.md)")
     lines.append(modulus_line(f["hydroelastic_modulus_Pa"], why))
+    if f.get("truth_reference") == "continuous":
+        lines.append(f"  the truth: Drake's continuous-time plant (triangle contact surfaces, exact moments; RungeKutta3 at "
+                     f"accuracy {f['truth_accuracy']:g}): this scene's discrete answer depends on the contact mesh "
+                     "(testbed study truth; docs/truth.md)")
+    elif "truth_reference" in f:
+        lines.append("  the truth: Drake's discrete plant as the scene sets it (each contact polygon's force at its "
+                     "centroid; how far that is from a converged answer: testbed study truth)")
     if "three_way" in f:
         from testbed.engines.three_way import format_table
 

@@ -24,6 +24,12 @@ def _load(scene, source=None):
     return load_scenario(path), path
 
 
+def truth_accuracy(scenario) -> float | None:
+    """The continuous truth's integrator accuracy where the scene is judged against the converged
+    rung (scenario.truth.reference "continuous"), else None (its discrete plant)."""
+    return scenario.truth.accuracy if scenario.truth.reference == "continuous" else None
+
+
 def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: float | None = None,
                   with_point: bool = True, replay: bool = True, record_every: int | None = None,
                   source=None, judge=None) -> dict:
@@ -57,7 +63,7 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
     h = scenario.plant.time_step
     every = record_every or steps_per_record(h)
     learned = [build_scene(variant(scenario, "learned", p), source) for p in predictors]
-    truth_scene = build_scene(variant(scenario, "truth"), source)
+    truth_scene = build_scene(variant(scenario, "truth"), source, continuous_accuracy=truth_accuracy(scenario))
     point_scene = build_scene(variant(scenario, "point"), source) if with_point else None
     truth = run_variant(None, duration, every, scene=truth_scene)
     point = run_variant(None, duration, every, scene=point_scene) if with_point else None
@@ -69,7 +75,8 @@ def compare_predictors(scene, predictors, *, out_dirs, duration: float | None = 
         figures = {"scene": scenario.name, "predictor": effect.config.predictor,
                    "predictor_kind": getattr(effect.predictor, "kind", effect.config.predictor),
                    "duration_s": duration, "time_step_s": h, "record_period_s": every * h,
-                   "hydroelastic_modulus_Pa": law_modulus(scenario)}  # every run's containers (runs.variant)
+                   "hydroelastic_modulus_Pa": law_modulus(scenario),  # every run's containers (runs.variant)
+                   "truth_reference": scenario.truth.reference, "truth_accuracy": truth_accuracy(scenario)}
         figures.update(compare_figures(truth, run, scenario.containers, effect.predictor))
         for kind, traj in runs.items():
             figures[f"wall_per_sim_s_{kind}"] = traj.wall_s / max(traj.simulated_s, 1e-12)

@@ -103,13 +103,10 @@ def test_red_refinement_has_8x_the_tets_the_same_volume_and_keeps_drakes_vertice
 def _contact_force(scenario, meshes) -> np.ndarray:
     """Total contact force [N] in W on the top box, at a fixed penetrating pose, no motion."""
     from pydrake.math import RigidTransform, RollPitchYaw
-    from pydrake.multibody.plant import MultibodyPlantConfig
 
-    from testbed.studies.truth.scene import build_rung_scene
+    from testbed.builder import build_scene
 
-    config = MultibodyPlantConfig(time_step=0.0, contact_surface_representation="triangle",
-                                  use_sampled_output_ports=False)
-    scene = build_rung_scene(scenario, config, meshes=meshes)
+    scene = build_scene(scenario, continuous_accuracy=1e-3, meshes=meshes)
     root = scene.diagram.CreateDefaultContext()
     context = scene.plant.GetMyMutableContextFromRoot(root)
     scene.plant.SetFreeBodyPose(context, scene.bodies["top"],

@@ -24,8 +24,6 @@ from __future__ import annotations
 import time
 import warnings
 
-from pydrake.systems.analysis import SimulatorConfig
-
 from testbed import variants
 from testbed.errors import SimulationError
 from testbed.studies.truth.mesh_refine import cached_mesh_file
@@ -60,18 +58,9 @@ def base_scenario(scenario, duration: float):
                            variants.timing(duration=duration))
 
 
-def _plant(scenario, **changes):
-    config = scenario.plant
-    config = type(config)(**{f.name: getattr(config, f.name) for f in config.__fields__})
-    for key, value in changes.items():
-        setattr(config, key, value)
-    return config
-
-
 def build(kind: str, base, *, accuracy: float | None, cache_dir, source: object):
     """The BuiltScene of rung `kind` from the prepared scenario `base` (base_scenario)."""
     from testbed.builder import build_scene
-    from testbed.studies.truth.scene import build_rung_scene
 
     if kind == "polygon":
         return build_scene(variants.derive(base), source)
@@ -86,15 +75,9 @@ def build(kind: str, base, *, accuracy: float | None, cache_dir, source: object)
         level = int(kind[len("refined_L"):])
         sizes = {tuple(float(v) for v in c.container_type().size) for c in base.containers}
         meshes = {size: cached_mesh_file(size, level, cache_dir) for size in sizes}
-        s = variants.derive(base)
-        return build_rung_scene(s, _plant(s), meshes=meshes, source=source)
+        return build_scene(variants.derive(base), source, meshes=meshes)
     if kind == "continuous":
-        s = variants.derive(base)
-        s.simulator = SimulatorConfig(integration_scheme="runge_kutta3", accuracy=float(accuracy),
-                                      use_error_control=True, max_step_size=s.plant.time_step,
-                                      publish_every_time_step=False)
-        plant = _plant(s, time_step=0.0, contact_surface_representation="triangle", use_sampled_output_ports=False)
-        return build_rung_scene(s, plant, source=source)
+        return build_scene(variants.derive(base), source, continuous_accuracy=float(accuracy))
     raise ValueError(f"unknown rung {kind!r}")
 
 
