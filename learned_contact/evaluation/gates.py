@@ -17,9 +17,11 @@ Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8, + 9; training uses +
   others with roll and pitch within 0.05 deg). `resting_wider_set(seed, n)` draws it alone;
   its exactly level poses are "resting_wider_level" (the same labels).
 On both resting sets, and wherever two faces meet (stacks tilted up to 2 deg for the
-normal, 20 deg for the point), the predictor answers with Drake's own face-on-face
-quadrature in closed form (learned_contact.model.quadrature), which is why their bounds
-are micrometres: the residue is the slab model of Drake's tetrahedra, not a fit.
+normal, 20 deg for the point), the predictor answers with the exact integral of Drake's
+face-on-face pressure in closed form (learned_contact.model.quadrature), which is why their
+bounds are nanometres to micrometres: the residue is the slab model of Drake's tetrahedra, not a fit.
+Labels are the exact centre of pressure (testbed.contact.surfaces); every point figure is reported
+beside the one-point rule's distance from it on the same poses ("<set> truth gap ...").
 
 Two kinds of gate, and why: absolute bounds (the issue-3 thresholds) say the answer is
 good enough for a crane simulator; "vs prior" bounds say the network earns its place.
@@ -50,47 +52,60 @@ N_HELD_OUT = 400
 OUTSIDE_RANGES = {"max_tilt_deg": 10.0, "max_depth": 0.05}  # training: 5 deg, 0.03 m
 TRAINING_TILT_DEG, TRAINING_DEPTH = 5.0, 0.03
 # Every gate is failed by a simple alternative (tests/learned/test_learned_gates.py): the prior
-# (the continuum geometric estimate: the network zeroed and no quadrature) or Drake's point
-# contact. Figures measured on held-out seeds 0, 1, 2 and 98765 (400 poses per set) are in the
-# comments, with the issue targets they replace or tighten; each bound leaves room for that
-# seed-to-seed spread and no more, checked again on seeds 3-8 (every bound held there). Since issue 30 the predictor answers with Drake's own
-# face-on-face quadrature wherever two faces meet (learned_contact.model.quadrature), so most
-# figures are that closed form's, not a network's.
+# (the continuum geometric estimate: the network zeroed and no closed form) or Drake's point
+# contact. The labels are the exact centre of pressure (LABEL_VERSION 3), against which the prior
+# is a strong baseline (it is a linear foundation's exact integral over the clipped patch: 0.9-1.0
+# mm median on stacking poses, 1.8 mm on general ones), so the "vs prior" bounds say where the
+# predictor is better than that and, on general poses, that it is never worse. Figures measured on
+# held-out seeds 0-4 and 98765 (400 poses per set, 2026-12-03) are in the comments, with the issue
+# targets; each bound is the target or leaves room for that seed-to-seed spread. Where faces meet the
+# predictor answers with the exact integral of Drake's face-on-face pressure in closed form
+# (learned_contact.model.quadrature), so most stacking and resting figures are that closed form's.
 THRESHOLDS = {
-    # stacking (training-like): issue 30's targets 1.5 cm median, 8 cm p95 (prior 3.0-3.4 cm, 12.8-16.2 cm)
-    "stacking point error median": (0.0006, "m"),  # 0.27-0.36 mm
-    "stacking point error p95": (0.006, "m"),  # 2.5-3.5 mm (point contact 3.1 m)
-    "stacking normal error p95": (0.7, "deg"),  # 0.32-0.48 deg (prior 1.09-1.65 deg)
+    # stacking (training-like): targets 1 mm median, 5 mm p95, 0.5 deg normal p95
+    "stacking point error median": (0.0006, "m"),  # 0.18-0.24 mm (prior 0.9-1.0 mm)
+    "stacking point error p95": (0.005, "m"),  # 1.5-3.4 mm (point contact: metres)
+    # target 0.5 deg: met on 5 of 6 seeds (seed 1: 0.51 deg); prior 1.4-1.6 deg
+    "stacking normal error p95": (0.6, "deg"),  # 0.26-0.51 deg
     # the predictor must improve on its own continuum estimate (ratios: the prior scores 1)
-    "stacking point error median vs prior": (0.02, "x"),  # 0.0085-0.011
-    "general point error median vs prior": (0.75, "x"),  # 0.48-0.56 (issue 30: a known limit at 1.15 before)
-    "general point error p95 vs prior": (0.3, "x"),  # 0.14-0.20
-    "general MAE on the paper's 4 outputs vs prior": (0.85, "x"),  # 0.46-0.59 (seeds 3-8: up to 0.73)
-    # outside the training distribution: still bounded, still better than the prior
-    "outside point error median": (0.002, "m"),  # 0.93-1.02 mm, seeds 3-8 0.88-1.37 mm (prior 2.6-2.8 cm)
-    "outside point error median vs prior": (0.06, "x"),  # 0.034-0.038
-    # the outside set is small (about 280 poses) and its normal tail heavy: 0.54-0.85 deg, and 1.57 deg on
-    # seed 7 (the prior 1.4-3.3 deg), so it is judged against the prior on the same poses
-    "outside normal error p95 vs prior": (0.6, "x"),  # 0.25-0.47 over seeds 0-8 and 98765
-    # resting (issue 20's targets 2 mm median, 0.5 deg normal p95): the closed form answers every pose
-    "resting point error median": (2e-5, "m"),  # 2.9-3.9 um (prior 2.0-2.6 cm; point contact 8.5-10.5 cm)
-    "resting point error p95": (1e-4, "m"),  # 39-48 um (prior 14.9-20.4 cm)
-    "resting point error p95 vs prior": (0.001, "x"),  # 0.00022-0.00028
+    "stacking point error median vs prior": (0.35, "x"),  # 0.18-0.25
+    # general: targets 2 mm median, 10 mm p95, and never worse than the geometric estimate
+    "general point error median": (0.002, "m"),  # 1.5-1.8 mm (prior 1.8-1.9 mm: passes; point contact fails)
+    "general point error p95": (0.010, "m"),  # 7.0-9.4 mm
+    # a tie, not a gain: 0.84-0.99 (median) and 0.75-0.84 on seeds 0-2 and 98765 but 1.01 and 1.07
+    # on seeds 3 and 4 (p95); the networks trained on one-point labels scored 1.8 and 2.0 here
+    "general point error median vs prior": (1.0, "x"),
+    "general point error p95 vs prior": (1.0, "x"),
+    "general MAE on the paper's 4 outputs vs prior": (1.0, "x"),  # 0.50-0.89
+    # outside the training distribution: still bounded, still better than the prior at the median
+    "outside point error median": (0.002, "m"),  # 0.94-1.16 mm (prior 1.4-1.6 mm)
+    "outside point error median vs prior": (0.85, "x"),  # 0.61-0.74
+    # the outside set is small (about 290 poses) and its normal tail heavy: judged against the prior
+    "outside normal error p95 vs prior": (0.6, "x"),  # 0.20-0.53
+    # resting (where shipped stacks sit; mostly tilted up to 0.05 deg): targets 0.05 mm median, 0.5 mm p95
+    "resting point error median": (1e-7, "m"),  # 12-14 nm (prior 5.4 um; point contact 9-10 cm)
+    "resting point error p95": (1e-6, "m"),  # 0.12-0.16 um (prior 39 um)
+    "resting point error p95 vs prior": (0.01, "x"),  # 0.0031-0.0038
     # the normal cannot be an absolute gate: the prior (0.041-0.044 deg) passes any sensible bound
-    "resting normal error p95 vs prior": (0.002, "x"),  # 0.00062-0.00068 (2.6-2.8e-5 deg)
-    # wider resting poses (issue 30's targets: 2 mm median, 3 cm p95, 0.1 deg normal p95, exactly level
-    # poses 0.01 mm): yaw within 6 deg, B's centre up to 3 m x 0.6 m off A's (overhangs)
-    "resting_wider point error median": (1e-6, "m"),  # 3.3-4.9 nm (prior 0.014-2.1 mm)
-    "resting_wider point error p95": (1e-4, "m"),  # 25-32 um (prior 10.6-14.3 cm)
-    "resting_wider normal error p95 vs prior": (0.002, "x"),  # 0.00059-0.00075 (1.9-2.6e-5 deg; prior 0.032-0.038)
-    "resting_wider_level point error p95": (1e-7, "m"),  # 9-12 nm (prior 4.1-4.9 um; point contact fails)
+    "resting normal error p95 vs prior": (0.002, "x"),  # 0.00057-0.00068 (2.6-2.8e-5 deg)
+    # wider resting poses: yaw within 6 deg, B's centre up to 3 m x 0.6 m off A's (overhangs)
+    "resting_wider point error median": (1e-7, "m"),  # 1-3 nm (prior 1.0 um)
+    "resting_wider point error p95": (1e-6, "m"),  # 76-96 nm (prior 32 um)
+    "resting_wider normal error p95 vs prior": (0.002, "x"),  # 0.00058-0.00075 (2e-5 deg; prior 0.032-0.038)
+    "resting_wider_level point error p95": (1e-7, "m"),  # 5-7 nm (prior 4.1 um; point contact fails)
 }
 # Targets out of reach, pinned like the stress suite's expected failures: the gate holds
 # while the figure stays in the band (factors of the pinned figure), so a predictor that
 # gets worse fails it, and one that gets much better says the pin is stale.
-# name -> (target, pinned figure, (low, high) band factors, why). Issue 30 met the four
-# that were here (stacking median, general median vs prior, wider resting p95 and normal).
-KNOWN_LIMITS: dict = {}
+# name -> (target, pinned figure, (low, high) band factors, why).
+KNOWN_LIMITS: dict = {
+    "outside point error p95 vs prior": (
+        1.0, 1.075, (0.8, 1.25),
+        "beyond the training ranges (5-10 deg of tilt, 3-5 cm deep) the tail comes from the face-on-face closed "
+        "form's edge strips (a 45 deg strip model of the side faces' tetrahedra, least exact on deep tilted "
+        "contacts), not from a network: 0.89-1.20x the geometric estimate's p95 over seeds 0-4 and 98765 "
+        "(1.075 on the gates' test seed)"),
+}
 LIMIT_UNITS = {"vs prior": "x", "normal": "deg"}  # unit of a KNOWN_LIMITS figure by its name, else "m"
 # Reported, not gated: where the geometric estimate is already exact (the normal of a
 # vertex-face contact), the network can only lose; these figures show by how much.
@@ -255,7 +270,7 @@ def verdicts(figures: dict, n: int, seed) -> list[dict]:
             continue
         gate = pinned(name, figures[name], target, limit_unit(name), f"{name} (seed {seed}, {n} poses per set)",
                       KnownLimit(figure, tuple(factors), why))
-        out.append({**gate.to_dict(), "passed": bool(gate.passed)})
+        out.append({**gate.to_dict(), "passed": bool(gate.passed), "truth_uncertainty": truth_uncertainty(name, figures)})
     return out
 
 

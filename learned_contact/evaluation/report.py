@@ -34,8 +34,9 @@ def _stat_row(name: str, st: dict, scale: float = 1.0, fmt: str = "{:.4f}") -> s
 
 def render_markdown(metrics: dict) -> str:
     lines = ["# learned_contact accuracy report", "",
-             "Labels: Drake 1.51 static hydroelastic answer (centre of pressure, pressure-weighted",
-             "normal A->B, in A's frame). Paper outputs: spherical angles [rad] of the contact point",
+             "Labels: Drake's static hydroelastic answer (the centre of pressure as the exact integral of",
+             "Drake's pressure field over its contact surface, not the one-point rule its discrete solver",
+             "applies; pressure-weighted normal A->B; in A's frame). Paper outputs: spherical angles [rad] of the contact point",
              "direction and force direction in the symmetry-reduced frame (encodings.PAPER_FRAME);",
              "azimuth errors wrapped. Paper figures are its Tables 1 and 2 (averaged over outputs).", ""]
     paper = metrics.get("paper", {})
