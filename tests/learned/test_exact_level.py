@@ -70,8 +70,8 @@ def test_level_face_on_face_is_answered_by_the_quadrature_at_any_yaw_offset_and_
     compiled answer the quadrature's point and normal to rounding (1e-12 m), one evaluation
     per pair (no octant blend: the quadrature is equivariant by construction); it lies within
     0.1 mm of the continuum prior's slab answer (the edge slivers Drake adds; measured up to
-    0.04 mm); the main network alone moves the level resting points by centimetres (so this
-    test fails without the construction)."""
+    0.04 mm); the main network alone moves the level resting points by 0.4 mm (so this test
+    fails without the construction)."""
     prior = GeometricPrior()
     quad = _Quadrature()
     p, R, sA, sB = _level_poses(300, 71)
@@ -100,7 +100,9 @@ def test_level_face_on_face_is_answered_by_the_quadrature_at_any_yaw_offset_and_
     p_c, R_c = reflect(sigma, p, R)
     x, _, _ = features(p_c, R_c, 0.5 * sA, 0.5 * sB)
     moved = 0.5 * np.linalg.norm(paths["numpy"].mlp(x)[:, :3], axis=1)  # [m] what the network's correction alone would do
-    assert np.median(moved) > 0.01
+    # 0.4 mm median (a network fitted to exact labels; the one-point era's moved them by centimetres): a
+    # path that answered with it instead of the closed form would miss the 1e-12 m agreement above
+    assert np.median(moved) > 1e-6
 
 
 def test_on_level_resting_poses_every_path_is_within_0_01_mm_of_drake(paths, tmp_path_factory):
@@ -157,15 +159,17 @@ def _angle(a, b):
     return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0)))
 
 
-@pytest.mark.parametrize("which, band", [("normal", NORMAL_TILT), ("point", POINT_TILT)])
-def test_the_hand_over_from_the_quadrature_to_the_learned_answer_is_continuous(paths, which, band):
-    """Rolled through each hand-over band (0.5 x its start to 1.25 x its end, 2000 steps) the
+@pytest.mark.parametrize("which, band, n", [("normal", NORMAL_TILT, 2001), ("point", POINT_TILT, 20001)])
+def test_the_hand_over_from_the_quadrature_to_the_learned_answer_is_continuous(paths, which, band, n):
+    """Rolled through each hand-over band (0.5 x its start to 1.25 x its end, n - 1 steps; the
+    point's in 20,000: since both answers are near the exact one the gap between them mid-band is
+    0.97 mm, and a finer roll keeps it over 10 steps) the
     answer moves smoothly: no step is larger than 3x the median step plus 2 % of the gap
     between the quadrature's and the learned answer mid-band (the smoothstep's own slope
     moves the blend by at most 0.15 % of the gap per step here), while that gap is over 10x
     the median step: a switch, which would move the answer by the whole gap in one step,
     fails the test. Numpy and compiled alike."""
-    rolls = np.linspace(0.5 * np.degrees(band[0]), 1.25 * np.degrees(band[1]), 2001)
+    rolls = np.linspace(0.5 * np.degrees(band[0]), 1.25 * np.degrees(band[1]), n)
     p, R, sA, sB = _rolled(rolls)
     quad = _Quadrature().predict(p, R, size_A=sA, size_B=sB)
     h_A, h_B = 0.5 * sA, 0.5 * sB
