@@ -153,7 +153,9 @@ def summarize_errors(table: dict, prefix: str = "learned") -> dict:
     out = {f"{prefix}_rows": int(len(table["a"]))}
     for column, unit in (("point_error", "m"), ("one_point_error", "m"), ("truth_gap", "m"), ("normal_error_deg", "deg"),
                          ("shadow_point_error", "m"), ("shadow_normal_error_deg", "deg")):
-        values = table[column]
+        values = table.get(column)
+        if values is None:
+            continue
         finite = np.isfinite(values)
         if not np.any(finite):
             continue
@@ -221,8 +223,12 @@ class LearnedContactEffect(Effect):
         out = summarize_errors(table)
         driving = driving_kind(self.scenario.effects.contact.model)
         source = "" if driving == "hydroelastic" else "shadow_"
+        nan = np.full(len(table["a"]), np.nan)
         hydro = {"a": table["a"], "step": table["step"],
                  "point_error": table[f"{source}point_error"], "normal_error_deg": table[f"{source}normal_error_deg"],
+                 # the one-point reference and the truth's gap: on the driving model's rows (the shadow keeps none)
+                 "one_point_error": table["one_point_error"] if not source else nan,
+                 "truth_gap": table["truth_gap"] if not source else nan,
                  "shadow_point_error": np.full(len(table["a"]), np.nan),
                  "shadow_normal_error_deg": np.full(len(table["a"]), np.nan)}
         out.update(summarize_errors(hydro, prefix="learned_vs_hydro"))
