@@ -25,6 +25,9 @@ from __future__ import annotations
 import math
 import time
 
+from testbed.builder import build_scene
+from testbed.gates.closed_loop import DEFAULT_SCENES
+from testbed.scenario import load_scenario
 from testbed.studies.truth import gci
 from testbed.studies.truth.quantities import resolution
 from testbed.studies.truth.rungs import DEFAULT_ACCURACIES, RUNGS, base_scenario, continuous_name, expand, run_rung
@@ -41,8 +44,6 @@ QUICK_DURATION_S = 0.1
 def scene_duration(name: str, scenario, given: float | None, quick: bool) -> float:
     """[s] simulated per rung: `given`, else QUICK_DURATION_S with quick, else the gates'
     duration of the scene (closed_loop.DEFAULT_SCENES), else the scene's own."""
-    from testbed.gates.closed_loop import DEFAULT_SCENES
-
     if given is not None:
         return float(given)
     if quick:
@@ -133,9 +134,6 @@ def run_scene(name: str, scenario, duration: float, rungs, accuracies, cache_dir
 def load_scenes(names, duration: float | None, quick: bool) -> list[tuple[str, object, float]]:
     """[(name, Scenario, duration [s])], every scene loaded and built once before any run: a
     bad scene file is a ScenarioError (one line, exit 2) before anything is simulated."""
-    from testbed.builder import build_scene
-    from testbed.scenario import load_scenario
-
     out = []
     for name in names:
         scenario = load_scenario(name)

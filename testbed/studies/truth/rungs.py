@@ -25,7 +25,9 @@ import time
 import warnings
 
 from testbed import variants
+from testbed.builder import build_scene
 from testbed.errors import SimulationError
+from testbed.simulation import simulate
 from testbed.studies.truth.mesh_refine import cached_mesh_file
 from testbed.studies.truth.quantities import quantities
 
@@ -60,8 +62,6 @@ def base_scenario(scenario, duration: float):
 
 def build(kind: str, base, *, accuracy: float | None, cache_dir, source: object):
     """The BuiltScene of rung `kind` from the prepared scenario `base` (base_scenario)."""
-    from testbed.builder import build_scene
-
     if kind == "polygon":
         return build_scene(variants.derive(base), source)
     if kind == "triangle":
@@ -85,8 +85,6 @@ def run_rung(name: str, kind: str, base, *, accuracy: float | None, cache_dir, s
     """One rung: {'rung', 'kind', 'accuracy', 'time_step_s', 'status' ('ok' | 'failed'),
     'error', 'build_s', 'wall_s' (wall time of the stepping alone [s]), 'wall_per_sim_s'
     [s / simulated s], 'quantities' ({name: value}; {} when failed)}."""
-    from testbed.simulation import simulate
-
     start = time.perf_counter()
     row = {"rung": name, "kind": kind, "accuracy": accuracy, "time_step_s": 0.0 if kind == "continuous" else None,
            "status": "ok", "error": "", "build_s": None, "wall_s": None, "wall_per_sim_s": None, "quantities": {}}

@@ -18,6 +18,10 @@ import math
 
 from testbed.document import Section, Text, table
 from testbed.gates import Gate
+from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M
+from testbed.scenario import load_scenario
+from testbed.studies.truth.run import FULL_SCENES, load_scenes, run_loaded
+from testbed.studies.truth.rungs import DEFAULT_ACCURACIES, RUNGS
 from testbed.validation.cases import Case, CaseKind, register
 
 # (scene, duration [s]): overhang_tip over its whole tip (the discrete plant is 0.75 deg from the
@@ -28,8 +32,6 @@ QUICK_ACCURACIES = (1e-2, 1e-3)
 
 
 def _bounds():
-    from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M
-
     return {"final position": (FINAL_POSITION_TOL_M, "m"), "final angle": (FINAL_ANGLE_TOL_DEG, "deg"),
             "max penetration": (MAX_PENETRATION_M, "m")}
 
@@ -72,10 +74,6 @@ class TruthLadderCase(CaseKind):
 
     def run(self, quick: bool) -> dict:
         import tempfile
-
-        from testbed.scenario import load_scenario
-        from testbed.studies.truth.run import FULL_SCENES, load_scenes, run_loaded
-        from testbed.studies.truth.rungs import DEFAULT_ACCURACIES, RUNGS
 
         with tempfile.TemporaryDirectory() as tmp:
             if quick:
