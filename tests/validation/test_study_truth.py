@@ -2,7 +2,7 @@
 sequences, the refined box meshes (count, volume, and Drake's contact force the same as the
 Box's), one short scene through cheap rungs via the CLI, and bad input as one-line errors.
 Never asserts times beyond their being positive (2 shared cores). The full ladder on the
-shipped scenes is marked slow."""
+shipped scenes is marked `study` (not run by default: pytest -m study)."""
 
 import json
 import math
@@ -214,7 +214,7 @@ def test_a_bad_scene_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-@pytest.mark.slow
+@pytest.mark.study
 def test_full_ladder_on_the_shipped_scenes(tmp_path):
     """Every rung of every default scene at its gate duration (tens of minutes on 2 cores)."""
     assert main(["study", "truth", "--quiet", "--out", str(tmp_path)]) == 0
