@@ -39,8 +39,12 @@ KNOWN_LIMITS = {
         "the load lands with its centre of mass over the stack's edge and tips off after the twistlocks "
         "release, in the ground truth and in the closed loop alike: where it comes to rest is a balance-point "
         "outcome (MuJoCo with matched contact, identical until the release, ends 6.5 m away too), and Drake's own "
-        "hydroelastic ground truth penetrates 39.5 mm on this edge-first landing, above the 20 mm bound",
-        {"final position": (1.008, (0.5, 2.0)), "final angle": (5.3, (0.5, 2.0)),
+        "hydroelastic ground truth penetrates 39.5 mm on this edge-first landing, above the 20 mm bound. Since the "
+        "predictor integrates the edge strip's pressure exactly (0.6.0) while the discrete truth gives it 2/3 of its "
+        "rotational stiffness, the two tip the load differently off the knife edge (final angle 14.7 deg apart, "
+        "5.3 before); the continuous truth cannot judge it yet (the crane effect's output is an algebraic loop on a "
+        "continuous plant)",
+        {"final position": (1.008, (0.5, 2.0)), "final angle": (14.66, (0.5, 2.0)),
          "max penetration": (0.0457, (0.8, 1.25))}),
 }
 # Outcome gate on the scenes where the contact point decides whether a box holds or
