@@ -167,7 +167,7 @@ def test_crane_edge_landing_known_limit_is_pinned_both_ways():
     kind = registry()["closed_loop"]
 
     def record(final_m):
-        f = {"diverged": False, "final_position_error_max_m": final_m, "final_angle_error_max_deg": 5.3,
+        f = {"diverged": False, "final_position_error_max_m": final_m, "final_angle_error_max_deg": 14.66,
              "max_penetration_m": 0.0457, "energy_gain_gated_J": 0.0}
         return {"id": "closed-loop-crane_edge_landing", "result": {
             "scene": "crane_edge_landing", "predictors": {"improved": f}, "energy_limit_J": 100.0,
