@@ -78,14 +78,14 @@ def accuracy(predictor, data: dict, seed: int) -> dict:
     prior = GeometricPrior()
     sets = {}
     for name, ds in data.items():
-        mine = _stats(*predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)
+        point, normal = predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
+        mine = _stats(point, normal, ds)
         base = _stats(*prior.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)
         figures = {"n": len(ds), **mine}
         for key, value in mine.items():
             figures[f"{key}_vs_prior"] = value / base[key] if base[key] > 0 else float("inf")
             figures[f"prior_{key}"] = base[key]
         # the second reference (Drake's one-point rule) and the truth's own gap to it, on the same poses
-        point = predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)[0]
         figures["point_median_m_vs_one_point"] = float(np.median(np.linalg.norm(point - ds.cop_one_point, axis=1)))
         figures["truth_gap_median_m"] = float(np.median(np.linalg.norm(ds.cop - ds.cop_one_point, axis=1)))
         sets[name] = figures
