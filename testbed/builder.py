@@ -108,9 +108,11 @@ def with_mesh(sdf_text: str, vtk_path) -> str:
 
 def continuous_simulator(accuracy: float, max_step: float) -> SimulatorConfig:
     """The integrator of a continuous-time truth: RungeKutta3 with error control at `accuracy`,
-    steps of at most `max_step` [s] (the scene's discrete step: events keep their period)."""
+    steps of at most `max_step` [s] (the scene's discrete step: events keep their period).
+    No per-step publishing: that is SimulatorConfig's default on drake 1.51, and drake 1.58 removed
+    the field, so it is left unset to build on both."""
     return SimulatorConfig(integration_scheme="runge_kutta3", accuracy=float(accuracy), use_error_control=True,
-                           max_step_size=float(max_step), publish_every_time_step=False)
+                           max_step_size=float(max_step))
 
 
 def build_scene(scenario: Scenario, source: object = "<scenario>", *, continuous_accuracy: float | None = None,
