@@ -38,12 +38,17 @@ class OptionalBuildExt(build_ext):
                   "commands will use the numpy reference path (install a C compiler and reinstall)")
 
 
+# IEEE arithmetic as written: no fused multiply-adds or reassociation, so the core's answers
+# match the numpy reference to 1e-12 m whatever the compiler's defaults
+FLAGS = ["-std=c11", "-O2", "-ffp-contract=off", "-fno-fast-math"]
+
 setup(
     ext_modules=[Extension(
         "learned_contact._native", sources=SOURCES, include_dirs=["native/include", "native/src"],
-        # IEEE arithmetic as written: no fused multiply-adds or reassociation, so the core's
-        # answers match the numpy reference to 1e-12 m whatever the compiler's defaults
-        extra_compile_args=["-std=c11", "-O2", "-ffp-contract=off", "-fno-fast-math"],
-        libraries=["m"])],
+        extra_compile_args=FLAGS, libraries=["m"]),
+        # the testbed's own instrumentation (signed distances of recorded box pairs), in the
+        # geometry layer below learned_contact: its own small module
+        Extension("testbed.geometry._pairwise", sources=["native/geometry/pairwise.c"], extra_compile_args=FLAGS,
+                  libraries=["m"])],
     cmdclass={"build_ext": OptionalBuildExt},
 )

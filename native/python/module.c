@@ -10,7 +10,8 @@ extern PyMethodDef cc_py_predict_methods[];
 extern PyMethodDef cc_py_step_methods[];
 
 static PyModuleDef cc_module = {PyModuleDef_HEAD_INIT, "learned_contact._native",
-                                "The native contact core (C11): predictor and contact step.", -1, NULL};
+                                "The native contact core (C11): predictor and contact step.", -1, NULL,
+                                NULL, NULL, NULL, NULL};
 
 static int add_methods(PyObject *module, PyMethodDef *table) {
   for (PyMethodDef *m = table; m->ml_name != NULL; ++m) {

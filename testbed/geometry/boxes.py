@@ -29,7 +29,7 @@ Exactness:
 Bounded time: every function here does a fixed number of floating-point operations per
 pair (8 corners, 15 axes; no iteration to a tolerance, unlike GJK/EPA), so a call costs
 the same on any pose. `QueryBoxes.near` (testbed.contact.extraction.near_distances) runs
-the numba-compiled twin of `pairwise_signed_distances`.
+the compiled twin of `pairwise_signed_distances` (native/geometry/pairwise.c).
 """
 
 from __future__ import annotations
@@ -177,80 +177,33 @@ def pairwise_signed_distances(p_W, R_W, h, pairs, slab, max_distance):
     return out
 
 
-def _pairwise_kernel(p_W, R_W, h, pairs, slab, max_distance, out):
-    """Scalar-loop twin of pairwise_signed_distances (same answers, compiled by numba
-    in `pairwise_signed_distances_fast`), with an axis-aligned-box prune instead of the
-    bounding spheres: a pair whose world AABBs are more than max_distance apart on some
-    axis is farther than that (the gap along a world axis bounds the distance below)."""
-    for k in range(pairs.shape[0]):
-        i, j = pairs[k, 0], pairs[k, 1]
-        out[k] = np.inf
-        far = False
-        for a in range(3):
-            e_i = abs(R_W[i, a, 0]) * h[i, 0] + abs(R_W[i, a, 1]) * h[i, 1] + abs(R_W[i, a, 2]) * h[i, 2]
-            e_j = abs(R_W[j, a, 0]) * h[j, 0] + abs(R_W[j, a, 1]) * h[j, 1] + abs(R_W[j, a, 2]) * h[j, 2]
-            if abs(p_W[j, a] - p_W[i, a]) - e_i - e_j > max_distance:
-                far = True
-        if far:
-            continue
-        if slab[j] and not slab[i]:
-            i, j = j, i  # the slab is A
-        # pose of B (= j) in A (= i): p = R_i^T (p_j - p_i), R = R_i^T R_j
-        p = np.zeros(3)
-        R = np.zeros((3, 3))
-        for a in range(3):
-            for b in range(3):
-                p[a] += R_W[i, b, a] * (p_W[j, b] - p_W[i, b])
-                for c in range(3):
-                    R[a, b] += R_W[i, c, a] * R_W[j, c, b]
-        hA, hB = h[i], h[j]
-        if slab[i] != slab[j]:
-            d = p[2] - (abs(R[2, 0]) * hB[0] + abs(R[2, 1]) * hB[1] + abs(R[2, 2]) * hB[2]) - hA[2]
-            depth = max(-d, 0.0)
-            mx = hA[0] - abs(p[0]) - (abs(R[0, 0]) * hB[0] + abs(R[0, 1]) * hB[1] + abs(R[0, 2]) * hB[2])
-            my = hA[1] - abs(p[1]) - (abs(R[1, 0]) * hB[0] + abs(R[1, 1]) * hB[1] + abs(R[1, 2]) * hB[2])
-            if min(mx, my) >= depth and depth < hA[2]:
-                out[k] = d
-                continue
-        least = np.inf
-        for a in range(3):  # A's face normals e_a
-            r = hA[a] + abs(R[a, 0]) * hB[0] + abs(R[a, 1]) * hB[1] + abs(R[a, 2]) * hB[2]
-            least = min(least, r - abs(p[a]))
-        for b in range(3):  # B's face normals: column b of R
-            r = abs(R[0, b]) * hA[0] + abs(R[1, b]) * hA[1] + abs(R[2, b]) * hA[2] + hB[b]
-            least = min(least, r - abs(R[0, b] * p[0] + R[1, b] * p[1] + R[2, b] * p[2]))
-        for a in range(3):  # edge axes e_a x b_c
-            for c in range(3):
-                u = np.zeros(3)
-                a1, a2 = (a + 1) % 3, (a + 2) % 3
-                u[a1] = -R[a2, c]
-                u[a2] = R[a1, c]
-                norm = np.sqrt(u[a1] * u[a1] + u[a2] * u[a2])
-                if norm <= 1e-6:
-                    continue  # parallel edges: no information
-                r = (abs(u[0]) * hA[0] + abs(u[1]) * hA[1] + abs(u[2]) * hA[2]) / norm
-                for e in range(3):
-                    r += abs(u[0] * R[0, e] + u[1] * R[1, e] + u[2] * R[2, e]) / norm * hB[e]
-                least = min(least, r - abs(u[0] * p[0] + u[1] * p[1] + u[2] * p[2]) / norm)
-        out[k] = -least
+def _native_pairwise():
+    """testbed.geometry._pairwise (native/geometry/pairwise.c, built at install), or None where
+    the install had no C compiler (then the vectorised numpy reference answers)."""
+    try:
+        from testbed.geometry import _pairwise
+    except ImportError:
+        return None
+    return _pairwise
 
 
-_COMPILED: list = []
+_PAIRWISE = _native_pairwise()
 
 
 def pairwise_signed_distances_fast(p_W, R_W, h, pairs, slab, max_distance) -> np.ndarray:
-    """pairwise_signed_distances compiled with numba (one call is a fixed number of
-    floating-point operations per pair, no Python per pair). The first call in a
-    process loads the compiled kernel from numba's on-disk cache, or compiles it."""
-    if not _COMPILED:
-        import numba
-
-        _COMPILED.append(numba.njit(cache=True, nogil=True)(_pairwise_kernel))
+    """pairwise_signed_distances in compiled C (native/geometry/pairwise.c: a fixed number of
+    floating-point operations per pair, no Python per pair), with an axis-aligned-box prune
+    instead of the bounding spheres: a pair whose world AABBs are more than max_distance apart
+    on some axis gets +inf (the gap along a world axis bounds the distance below). Distances up
+    to max_distance equal the reference's. Without the native module: the reference itself."""
     pairs = np.ascontiguousarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if _PAIRWISE is None:
+        return pairwise_signed_distances(np.asarray(p_W, dtype=float), np.asarray(R_W, dtype=float),
+                                         np.asarray(h, dtype=float), pairs, np.asarray(slab, dtype=bool), max_distance)
     out = np.empty(len(pairs))
-    _COMPILED[0](np.ascontiguousarray(p_W, dtype=float), np.ascontiguousarray(R_W, dtype=float),
-                 np.ascontiguousarray(h, dtype=float), pairs, np.ascontiguousarray(slab, dtype=np.bool_),
-                 float(max_distance), out)
+    _PAIRWISE.signed_distances(np.ascontiguousarray(p_W, dtype=float), np.ascontiguousarray(R_W, dtype=float),
+                               np.ascontiguousarray(h, dtype=float), pairs,
+                               np.ascontiguousarray(slab, dtype=np.uint8), float(max_distance), out)
     return out
 
 

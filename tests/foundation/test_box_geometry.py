@@ -153,3 +153,16 @@ def test_near_distances_agree_with_drake_on_a_resting_stack():
         reference = depth[key] if key in depth else drake[key]
         assert mine[key] == pytest.approx(reference, abs=1e-6)
 
+
+
+def test_the_fast_distances_run_the_native_twin_where_the_install_built_it():
+    """CI's install has a C compiler: the twin must be the compiled module, not the numpy
+    fallback (which the test above would also pass)."""
+    assert bg._PAIRWISE is not None, "testbed.geometry._pairwise was not built: pip install -e . with a C compiler"
+    p, R, h = np.zeros((2, 3)), np.tile(np.eye(3), (2, 1, 1)), np.tile(H_CC, (2, 1))
+    p[1, 2] = 2 * H_CC[2] - 0.01
+    out = np.empty(1)
+    bg._PAIRWISE.signed_distances(p, R, h, np.array([[0, 1]], np.int64), np.zeros(2, np.uint8), 1.0, out)
+    assert out[0] == pytest.approx(-0.01, abs=1e-12)
+    with pytest.raises(IndexError):
+        bg._PAIRWISE.signed_distances(p, R, h, np.array([[0, 2]], np.int64), np.zeros(2, np.uint8), 1.0, out)
