@@ -34,7 +34,15 @@ the compiled twin of `pairwise_signed_distances` (native/geometry/pairwise.c).
 
 from __future__ import annotations
 
+import importlib
+from typing import Any
+
 import numpy as np
+
+try:  # native/geometry/pairwise.c, built at install; None where the install had no C compiler
+    _PAIRWISE: Any = importlib.import_module("testbed.geometry._pairwise")
+except ImportError:  # pragma: no cover (the vectorised numpy reference answers instead)
+    _PAIRWISE = None
 
 # (8, 3) corner signs of a box, in a fixed order.
 CORNER_SIGNS = np.array(
@@ -175,19 +183,6 @@ def pairwise_signed_distances(p_W, R_W, h, pairs, slab, max_distance):
         p_AB, R_AB = pose_of_B_in_A(p_W[i[general]], R_W[i[general]], p_W[j[general]], R_W[j[general]])
         out[general] = box_box_signed_distance(p_AB, R_AB, h[i[general]], h[j[general]])
     return out
-
-
-def _native_pairwise():
-    """testbed.geometry._pairwise (native/geometry/pairwise.c, built at install), or None where
-    the install had no C compiler (then the vectorised numpy reference answers)."""
-    try:
-        from testbed.geometry import _pairwise
-    except ImportError:
-        return None
-    return _pairwise
-
-
-_PAIRWISE = _native_pairwise()
 
 
 def pairwise_signed_distances_fast(p_W, R_W, h, pairs, slab, max_distance) -> np.ndarray:
