@@ -1,5 +1,5 @@
 """Learned contact for container pairs: Drake-labelled data, the paper's MLP and an
-improved predictor, with compiled (numba) and numpy reference inference paths.
+improved predictor, with compiled (the native C core, native/) and numpy reference inference paths.
 
 Public API:
     from learned_contact import load_predictor

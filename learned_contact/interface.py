@@ -36,7 +36,7 @@ class Predictor(Protocol):
 
     kind: the name recorded in the weights file ("improved", "paper").
     supported_sizes: (k, 3) full extents [m] the predictor answers.
-    compiled: True when predict/depth run the numba kernels (learned_contact.compiled),
+    compiled: True when predict/depth run the native core (learned_contact.compiled),
     False for the numpy reference path.
     """
 

@@ -1,22 +1,53 @@
-"""Compiled inference for the contact predictors (numba, cached machine code).
+"""The compiled inference path of the contact predictors: the Python face of the native core.
 
-Why numba: the kernels are written as plain loops over numpy arrays, in the same
-operations as the numpy reference (learned_contact.model.prior / encodings / mlp), so both
-paths can be compared line by line and agree to rounding; `@njit(cache=True)` stores the
-machine code beside the source (or in the user's cache directory when that is not
-writable), so a fresh process loads it instead of compiling (see `python -m
-learned_contact.evaluation.benchmark --first-call`); the wheel stays pure Python (no C toolchain
-at install time, no per-platform builds of our own); and numba is a well kept,
-widely used project that follows numpy releases. Cython or a C extension would need a
-compiler in the wheel path; torch/ONNX runtimes add per-call framework overhead that
-dominates a 6-20-18-4 network.
+The core is C11 (native/src: the separating-axis test, the geometric estimate and features,
+the exact face-on-face integral, the networks, the improved and paper predictors; public
+API native/include/container_contact.h), built by `pip install` into the extension
+learned_contact._native (setup.py) and called here (kernels.py) with the lowest per-call
+overhead Python allows. The predictors in learned_contact.predictors call it when loaded with
+`load_predictor(..., compiled=True)` (the default); the numpy reference path
+(`compiled=False`) stays the tests' oracle (tests/learned/test_native_core.py: the two agree
+to 1e-12 m).
 
-Layout: geometry.py (one-pose SAT, clipped patch, canonicalisation), kernels.py (input
-checks, features, MLP, the fused per-predictor loops). The predictors in
-learned_contact.predictors.improved and learned_contact.predictors.paper call these when loaded with
-`load_predictor(..., compiled=True)` (the default).
+Where the extension is missing (no C compiler at install time), NATIVE_AVAILABLE is False
+and a predictor asked for the compiled path answers on the numpy reference path instead,
+saying so once per process on stderr (`say_not_built`).
 """
 
-from learned_contact.compiled.kernels import box_depth, improved_predict, pack_improved, pack_mlp, paper_predict
+from __future__ import annotations
 
-__all__ = ["box_depth", "improved_predict", "pack_improved", "pack_mlp", "paper_predict"]
+import sys
+
+from learned_contact.compiled.kernels import (
+    ACTIVATION_CODES,
+    KIND_CODES,
+    STATUS_NAMES,
+    _native,
+    box_depth,
+    constants,
+    features,
+    mlp_spec,
+    native_answer,
+    native_depth,
+    native_depth_of,
+    native_model,
+    native_predict,
+)
+
+NATIVE_AVAILABLE = _native is not None
+NOT_BUILT = ("native core not built: using the numpy reference path (install a C compiler and run "
+             "pip install -e . again)")
+_said = False
+
+
+def say_not_built() -> None:
+    """Prints NOT_BUILT on stderr, once per process."""
+    global _said
+    if not _said:
+        _said = True
+        print(NOT_BUILT, file=sys.stderr)
+
+
+__all__ = ["ACTIVATION_CODES", "KIND_CODES", "NATIVE_AVAILABLE", "NOT_BUILT", "STATUS_NAMES", "box_depth", "constants", "features",
+           "mlp_spec", "native_answer", "native_depth", "native_depth_of", "native_model", "native_predict",
+           "say_not_built"]

@@ -8,8 +8,11 @@
 - `one_blas_thread()`: numpy's BLAS limited to one thread while timing (threadpoolctl): Drake's
   queries are single-threaded, and on 2 shared cores a threaded BLAS made batched calls 10x
   slower and erratic;
+- `fastest_side_by_side(fns, rounds)`: the fastest call [ns] of each function, their rounds
+  interleaved (what the machine's load does to one it does to all);
 - `predictor_cost(pred, singles, batched)`: seconds per pair asked one pair per call (a
-  simulator's per-contact call) and batched (every pair of a step in one call);
+  simulator's per-contact call) and batched (every pair of a step in one call); for a model
+  the testbed did not ship also its own call alone and the wrapper's share (the difference);
 - `drake_point_pair_cost(singles)`: Drake's point-pair query per pair, with the pose set per
   call and the query alone (the reference every ratio is stated against);
 - `first_call_s(spec)`: import, load and the first answer in a fresh interpreter (what a
@@ -51,6 +54,18 @@ def fastest_ns(fn, repeats: int) -> float:
     return float(best)
 
 
+def fastest_side_by_side(fns, rounds: int) -> list[float]:
+    """The fastest wall time [ns] of each function of no arguments in `fns`, over `rounds`
+    rounds that each call every function once in turn."""
+    best = [math.inf] * len(fns)
+    for _ in range(rounds):
+        for i, fn in enumerate(fns):
+            t0 = time.perf_counter_ns()
+            fn()
+            best[i] = min(best[i], time.perf_counter_ns() - t0)
+    return [float(b) for b in best]
+
+
 def per_pair_s(fn, pairs: int, rounds: int = ROUNDS) -> float:
     """Seconds per pair of fn(), which answers `pairs` pairs: its fastest of `rounds` calls."""
     return fastest_ns(fn, rounds) * 1e-9 / pairs
@@ -70,23 +85,42 @@ def one_blas_thread():
 
 
 def predictor_cost(pred, singles, batched, rounds: int = ROUNDS) -> dict:
-    """{"single_s_per_pair", "batched_s_per_pair"} of a loaded predictor on the same poses.
-    For a model the testbed did not ship (learned_contact.predictors.external.ExternalPredictor) also
-    {"model_single_s_per_pair", "model_batched_s_per_pair"}: its own answer function alone (the
-    ONNX runtime's session.run, the Python object's predict), without the wrapper's checks,
-    depth and clipping: what an integrator calling the model directly pays."""
+    """{"single_s_per_pair", "batched_s_per_pair"} [s] of a loaded predictor on the same poses:
+    its full predict call. For a model the testbed did not ship
+    (learned_contact.predictors.external.ExternalPredictor, which has `own_call`) also, timed
+    side by side with it (rounds interleaved): "model_single_s_per_pair",
+    "model_batched_s_per_pair", the model's own call alone on inputs prepared beforehand
+    (onnxruntime's session.run, the Python object's predict: what an integrator calling the
+    model directly pays; the model is still bounded, one bound over each round of calls:
+    ExternalPredictor.own_round), and "wrapper_single_s_per_pair", "wrapper_batched_s_per_pair", the
+    full call less the model's own (the per-call bound, input conversion, the testbed's checks,
+    depth and clipping; 0 when the difference is within the timing's noise and negative)."""
     pb, Rb, sAb, sBb = batched
     pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm (compiled code loaded, caches filled)
-    out = {
-        "single_s_per_pair": per_pair_s(lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles],
-                                        len(singles), rounds),
-        "batched_s_per_pair": per_pair_s(lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), len(pb), rounds),
-    }
-    answer = getattr(pred, "answer_function", None)
-    if answer is not None:
-        ones = [tuple(np.asarray(v, dtype=float).reshape((1, *np.shape(v))) for v in pose) for pose in singles]
-        out["model_single_s_per_pair"] = per_pair_s(lambda: [answer(*pose) for pose in ones], len(ones), rounds)
-        out["model_batched_s_per_pair"] = per_pair_s(lambda: answer(pb, Rb, sAb, sBb), len(pb), rounds)
+    fns = [lambda: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles],
+           lambda: pred.predict(pb, Rb, size_A=sAb, size_B=sBb)]
+    own = getattr(pred, "own_call", None)
+    if own is not None:
+        ones = [own(*(np.asarray(v, dtype=float).reshape((1, *np.shape(v))) for v in pose)) for pose in singles]
+        whole = own(pb, Rb, sAb, sBb)
+
+        def one_by_one():
+            with pred.own_round(len(ones)):  # one bound over the round, not one per call
+                return [call() for call in ones]
+
+        def batched():
+            with pred.own_round(1):
+                return whole()
+
+        batched()  # warm
+        fns += [one_by_one, batched]
+    ns = fastest_side_by_side(fns, rounds)
+    out = {"single_s_per_pair": ns[0] * 1e-9 / len(singles), "batched_s_per_pair": ns[1] * 1e-9 / len(pb)}
+    if own is not None:
+        out["model_single_s_per_pair"] = ns[2] * 1e-9 / len(singles)
+        out["model_batched_s_per_pair"] = ns[3] * 1e-9 / len(pb)
+        for how in ("single", "batched"):
+            out[f"wrapper_{how}_s_per_pair"] = max(0.0, out[f"{how}_s_per_pair"] - out[f"model_{how}_s_per_pair"])
     return out
 
 

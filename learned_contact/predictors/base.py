@@ -1,8 +1,11 @@
 """What the MLP-based predictors share: input checks, the compiled/numpy dispatch,
 `depth`, `in_domain` and saving with the recorded `kind` (the loader's key).
 
-A subclass sets `kind` and implements `_predict_numpy` (the reference) and
-`_predict_compiled` (a learned_contact.compiled kernel call).
+A subclass sets `kind` and implements `_predict_numpy` (the reference); the compiled path is
+the native core (learned_contact.compiled: one C call per predict or depth, on a Model of
+the predictor's networks packed once, at construction; a subclass with more than the main
+network overrides `_native_model`). Where the native core was not built, a predictor asked
+for the compiled path answers on the numpy path and says so once per process on stderr.
 """
 
 from __future__ import annotations
@@ -14,6 +17,15 @@ from typing import ClassVar
 
 import numpy as np
 
+from learned_contact.compiled import (
+    NATIVE_AVAILABLE,
+    native_answer,
+    native_depth,
+    native_depth_of,
+    native_model,
+    native_predict,
+    say_not_built,
+)
 from learned_contact.interface import DOMAIN_DEPTH, check_numpy, check_outside, check_poses, check_size_shape, domain_error, raise_for_status
 from learned_contact.model.mlp import NumpyMLP
 from testbed.geometry.boxes import sat_normal
@@ -33,8 +45,8 @@ FORMAT_VERSIONS = (FORMAT_VERSION, EXPERT_FORMAT_VERSION, SUPPORT_FORMAT_VERSION
 @dataclasses.dataclass(frozen=True)
 class MLPPredictor:
     """mlp: the network; supported_sizes (k, 3): full extents [m] it answers; meta:
-    training config and provenance (JSON-able dict); compiled: run the numba kernels
-    (True) or the numpy reference (False)."""
+    training config and provenance (JSON-able dict); compiled: run the native core
+    (True; False where it was not built) or the numpy reference (False)."""
 
     kind: ClassVar[str] = ""
     mlp: NumpyMLP
@@ -46,15 +58,23 @@ class MLPPredictor:
         sizes = np.ascontiguousarray(self.supported_sizes, dtype=float).reshape(-1, 3)
         object.__setattr__(self, "supported_sizes", sizes)
         if self.compiled:
-            from learned_contact.compiled import box_depth, pack_mlp
+            if NATIVE_AVAILABLE:
+                object.__setattr__(self, "_native", self._native_model())
+            else:
+                say_not_built()
+                object.__setattr__(self, "compiled", False)
 
-            object.__setattr__(self, "_packed", pack_mlp(self.mlp))
-            # load (or, with an empty numba cache, compile) the kernels now, at load time,
-            # so that no later call inside a timed loop pays for it
-            size = sizes[:1]
-            p, R = np.array([[0.0, 0.0, size[0, 2]]]), np.eye(3)[None]
-            self._predict_compiled(p, R, size, size, True)
-            box_depth(p, R, size, size, sizes)
+    @property
+    def native_model(self):
+        """The learned_contact._native.Model this predictor answers with (the native core's
+        cc_model over its networks), or None on the numpy path: what the learned contact step
+        hands to the core so that the predictor runs inside it (cc_contact_step)."""
+        return getattr(self, "_native", None) if self.compiled else None
+
+    def __reduce__(self):
+        """Copies and pickles rebuild the predictor from its fields (the native Model it holds
+        is rebuilt, not copied)."""
+        return _rebuild, (type(self), {f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
 
     def with_compiled(self, compiled: bool):
         """The same predictor on the other inference path."""
@@ -75,6 +95,14 @@ class MLPPredictor:
         point is clamped into A's box grown by CLIP_MARGIN and the normal is a unit
         vector. outside="raise" refuses them with PredictorDomainError instead.
         """
+        if self.compiled and (outside == "clip" or outside == "raise"):
+            # the fast path: numpy inputs of the interface's shapes go straight to the core
+            answer = native_answer(self._native, p_AB, R_AB, size_A, size_B, outside == "raise")
+            if answer is not None and answer[0] == 0:
+                _, _, point, normal, depth, n_outside = answer
+                if n_outside:
+                    raise domain_error(depth)
+                return point, normal
         check_outside(outside)
         if not self.compiled:
             p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
@@ -82,9 +110,9 @@ class MLPPredictor:
         else:
             p, R, single = check_poses(p_AB, R_AB)
             sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
-            point, normal, depth, status, row = self._predict_compiled(p, R, sA, sB, outside == "raise")
+            point, normal, depth, status, row = native_predict(self._native, p, R, sA, sB, outside == "raise")
             if status:
-                raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
+                self._refuse(status, row, p_AB, R_AB, size_A, size_B)
         if outside == "raise" and np.any((depth < DOMAIN_DEPTH[0]) | (depth > DOMAIN_DEPTH[1])):
             raise domain_error(depth)
         return (point[0], normal[0]) if single else (point, normal)
@@ -93,13 +121,14 @@ class MLPPredictor:
         """(n,) separating-axis penetration depth [m] (negative = separated by that
         much); a float for a single pose. The closed-loop force law's depth."""
         if self.compiled:
-            from learned_contact.compiled import box_depth
-
+            answer = native_depth_of(self._native, p_AB, R_AB, size_A, size_B)
+            if answer is not None and answer[0] == 0:
+                return answer[2]
             p, R, single = check_poses(p_AB, R_AB)
             sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
-            depth, status, row = box_depth(p, R, sA, sB, self.supported_sizes)
+            depth, status, row = native_depth(self._native, p, R, sA, sB)
             if status:
-                raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
+                self._refuse(status, row, p_AB, R_AB, size_A, size_B)
         else:
             p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
             depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
@@ -133,6 +162,22 @@ class MLPPredictor:
         """(point (n, 3), normal (n, 3), depth (n,)) on checked (n, ...) arrays."""
         raise NotImplementedError
 
-    def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
-        """(point, normal, depth, status, row) from a compiled kernel."""
-        raise NotImplementedError
+    def _native_model(self):
+        """The native core's Model of this predictor (learned_contact.compiled.native_model)."""
+        return native_model(self.kind, self.supported_sizes, self.mlp)
+
+    def _refuse(self, status: int, row: int, p_AB, R_AB, size_A, size_B):
+        """Raises the numpy path's error for the native core's status (1-6): the reference
+        checks run on the same inputs and raise it (same class, same message); should they
+        pass, the status's error from learned_contact.interface.raise_for_status."""
+        check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
+        if status not in range(1, 7):
+            raise RuntimeError(f"the native core answered status {status} (a bad argument) on checked inputs")
+        p, R, _ = check_poses(p_AB, R_AB)
+        sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
+        raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
+
+
+def _rebuild(cls, fields: dict):
+    """A predictor of class cls from its dataclass fields (MLPPredictor.__reduce__)."""
+    return cls(**fields)

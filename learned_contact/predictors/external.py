@@ -23,10 +23,12 @@ A, normal_A (n, 3) unit from A into B.
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+import contextlib
+from typing import Callable, ContextManager, Optional
 
 import numpy as np
 
+from learned_contact.compiled import NATIVE_AVAILABLE, box_depth
 from learned_contact.errors import PredictorOutputError, WeightsError
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, check_numpy, check_outside, domain_error
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -51,6 +53,10 @@ SINGLE_POSES = 6  # poses of the probe also asked one at a time
 
 # (p (n, 3), R (n, 3, 3), size_A (n, 3), size_B (n, 3)) -> (point (n, 3), normal (n, 3), depth (n,) or None)
 AnswerFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], tuple]
+# the same arguments -> a function of no arguments that runs the model's own call alone on them
+OwnCallFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Callable[[], object]]
+# calls -> a context bounding that many own calls in a row (learned_contact.predictors.limits)
+OwnRoundFn = Callable[[int], ContextManager]
 
 
 def default_sizes() -> np.ndarray:
@@ -95,26 +101,49 @@ class ExternalPredictor:
     """A model the testbed did not ship, behind learned_contact.interface.Predictor.
 
     kind: its catalogue source ("onnx", "python"); name: what the bench and reports call
-    it; answer: the raw answer function (AnswerFn); supported_sizes (k, 3) full extents
+    it; answer: the raw answer function (AnswerFn: the model's call under its per-call bound,
+    inputs converted, outputs as arrays); own_call: OwnCallFn, the model's own call alone
+    (see `own_call`; default: the answer function) and own_round: OwnRoundFn, the bound on a
+    round of them (see `own_round`; default: none, the answer function bounds each call);
+    supported_sizes (k, 3) full extents
     [m]; source: the file or module:attribute it came from (named in every error).
-    `compiled` is False: the numba kernels are the shipped predictors' own.
+    `compiled` is False: the native core is the shipped predictors' own.
     """
 
     compiled = False
 
     def __init__(self, *, kind: str, name: str, answer: AnswerFn, supported_sizes, source: str,
-                 depth_fn: Optional[AnswerFn] = None):
+                 depth_fn: Optional[AnswerFn] = None, own_call: Optional[OwnCallFn] = None,
+                 own_round: Optional[OwnRoundFn] = None):
         self.kind, self.source = kind, source
         self.name = "".join(ch if ch.isprintable() else "_" for ch in str(name))[:80]  # shown in tables and lines
         self._answer, self._depth_fn = answer, depth_fn
+        self._own_call = own_call if own_call is not None else (lambda p, R, sA, sB: lambda: answer(p, R, sA, sB))
+        self._own_round = own_round if own_call is not None and own_round is not None else \
+            (lambda calls: contextlib.nullcontext())
         self.supported_sizes = np.ascontiguousarray(supported_sizes, dtype=float).reshape(-1, 3)
         self.meta = {"source": source, "name": name}
 
     @property
     def answer_function(self) -> AnswerFn:
-        """The model's raw answer function (no checks, depth or clipping): what the cost
-        benchmark times as the model alone (learned_contact.evaluation.cost)."""
+        """The model's raw answer function (its call under the per-call bound, inputs converted;
+        no checks, depth or clipping)."""
         return self._answer
+
+    def own_call(self, p_AB, R_AB, size_A, size_B) -> Callable[[], object]:
+        """A function of no arguments that runs the model's own call alone on these poses
+        (p_AB (n, 3) [m], R_AB (n, 3, 3), size_A and size_B (n, 3) full extents [m]), the inputs
+        prepared beforehand as the model takes them: onnxruntime's session.run on the converted
+        feed, a Python model's predict; no bound, conversion, checks, depth or clipping. What an
+        integrator calling the model directly pays, which the bench times beside the full
+        predict (learned_contact.evaluation.cost.predictor_cost). Run them inside `own_round`."""
+        return self._own_call(*(np.asarray(v, dtype=float) for v in (p_AB, R_AB, size_A, size_B)))
+
+    def own_round(self, calls: int) -> ContextManager:
+        """A context inside which `calls` own calls (own_call) run in a row, bounded as a whole at
+        calls x --model-call-timeout (limits: the watchdog for ONNX, SIGALRM for Python), so that a
+        model is never run unbounded, at the cost of one bound per round, not per call."""
+        return self._own_round(calls)
 
     def __repr__(self) -> str:
         return f"ExternalPredictor(kind={self.kind!r}, name={self.name!r}, source={self.source!r})"
@@ -136,6 +165,8 @@ class ExternalPredictor:
                 raise PredictorOutputError(f"{self.source}: depth answered shape {depth.shape} or non-finite "
                                            f"values for {len(p)} poses; expected ({len(p)},) finite [m]")
             return depth
+        if NATIVE_AVAILABLE:  # the same separating-axis depth in C: ~1 us instead of ~100 us of numpy per call
+            return box_depth(p, R, sA, sB)
         return sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
 
     def predict(self, p_AB, R_AB, *, size_A, size_B, outside: str = "clip"):

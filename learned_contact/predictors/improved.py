@@ -12,7 +12,8 @@ neighbouring octant's frame (encodings.frame_blend), so that it is continuous ac
 the plane by construction. Where stacks rest (learned_contact.model.expert's gate) a second
 network of the same shape, the resting expert, gives the correction instead, with a
 smooth hand-over at its domain's edges. The numpy path below is the
-reference; learned_contact.compiled.kernels.improved_predict is the same pipeline compiled.
+reference; the native core (native/src/predict.c, called through learned_contact.compiled
+when compiled=True) is the same pipeline in C.
 """
 
 from __future__ import annotations
@@ -22,9 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
+from learned_contact.compiled import native_model
 from learned_contact.interface import CLIP_MARGIN, DOMAIN_DEPTH, SIZE_TOLERANCE
 from learned_contact.model.encodings import features, frame_blend, reflect
-from learned_contact.model.expert import DOMAIN_FIELDS, LAYOUTS, layout, weights
+from learned_contact.model.expert import LAYOUTS, layout, weights
 from learned_contact.model.mlp import NumpyMLP
 from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT, face_on_face, hand_over
 from learned_contact.predictors.base import EXPERT_FORMAT_VERSION, FORMAT_VERSION, SUPPORT_FORMAT_VERSION, MLPPredictor
@@ -59,15 +61,11 @@ class ContactPredictor(MLPPredictor):
         if self.expert is not None:
             object.__setattr__(self, "expert_domain", np.asarray(self.expert_domain, dtype=float).copy())
             layout(self.expert_domain)  # 9 or 11 values, else ValueError
-        if self.compiled:
-            from learned_contact.compiled import improved_predict, pack_improved, pack_mlp
-
-            expert = pack_mlp(self.expert if self.expert is not None else self.mlp)
-            domain = self.expert_domain if self.expert is not None else np.zeros(len(DOMAIN_FIELDS))
-            object.__setattr__(self, "_kernel", improved_predict)
-            object.__setattr__(self, "_kernel_args", pack_improved(
-                self.supported_sizes, pack_mlp(self.mlp), expert, domain, self.expert is not None))
         super().__post_init__()
+
+    def _native_model(self):
+        """The native core's Model: the main network, and the resting expert with its gate's bounds."""
+        return native_model(self.kind, self.supported_sizes, self.mlp, self.expert, self.expert_domain)
 
     def _correction(self, x, p_c, R_c, h_A, h_B, depth, overlap):
         """(n, 6) the correction for features x (n, F) of canonical poses p_c (n, 3) [m],
@@ -133,8 +131,3 @@ class ContactPredictor(MLPPredictor):
             point = np.where(out[:, None], np.clip(point, -bound, bound), point)
         return point, normal
 
-    def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
-        n = len(p)
-        point, normal, depth = np.empty((n, 3)), np.empty((n, 3)), np.empty(n)
-        status, row = self._kernel(p, R, sA, sB, *self._kernel_args, point, normal, depth)
-        return point, normal, depth, status, row

@@ -153,7 +153,7 @@ def _expert(arrays: dict, path, kind: str, version: int) -> dict:
 def load_weights(name_or_path=None, *, compiled: bool = True):
     """The predictor named ("improved", the default, or "paper") or stored in an .npz.
 
-    compiled: run the numba kernels (learned_contact.compiled; cached machine code) or,
+    compiled: run the native core (learned_contact.compiled; built at install) or,
     False, the numpy reference path. Raises WeightsError naming the file, the field and
     what was expected for a missing, unreadable, unknown-kind or wrong-version file.
     """

@@ -15,7 +15,10 @@ shaped as above with a dynamic first axis, well-formed metadata, and a probe bat
 (external.probe_poses) answered with finite, unit-normal outputs of the right shapes.
 Every failure is one WeightsError line naming the file, the input or output and what was
 expected. The session runs on one thread (intra- and inter-op), so its cost is compared
-with the single-threaded numba kernels on equal terms.
+with the single-threaded native core on equal terms. Each run is bounded by
+--model-call-timeout through the process's one watchdog thread (limits.onnx_deadline: no
+thread per call); the predictor's `own_call` is session.run alone on a prepared feed, which
+the bench times beside the full call.
 """
 
 from __future__ import annotations
@@ -193,9 +196,22 @@ def load_onnx(path) -> ExternalPredictor:
 
     import onnxruntime as ort
 
-    def answer(p, R, sA, sB):
-        feed = {n: np.ascontiguousarray(v, dtype=dtypes[n]) for n, v in
+    def prepared(p, R, sA, sB):
+        return {n: np.ascontiguousarray(v, dtype=dtypes[n]) for n, v in
                 (("p_AB", p), ("R_AB", R), ("size_A", sA), ("size_B", sB))}
+
+    own_options = ort.RunOptions()  # the runs of own_call: bounded a round at a time (own_round)
+    own_options.log_severity_level = 4
+
+    def own_call(p, R, sA, sB):
+        feed = prepared(p, R, sA, sB)
+        return lambda: session.run(wanted, feed, own_options)
+
+    def own_round(calls):
+        return limits.onnx_deadline(own_options, f"ONNX model {path}", calls, f"{calls} of its own calls in a row")
+
+    def answer(p, R, sA, sB):
+        feed = prepared(p, R, sA, sB)
         run_options = ort.RunOptions()
         run_options.log_severity_level = 4
         try:
@@ -211,7 +227,7 @@ def load_onnx(path) -> ExternalPredictor:
 
     depth_fn = (lambda p, R, sA, sB: answer(p, R, sA, sB)[2]) if "depth" in outputs else None
     predictor = ExternalPredictor(kind="onnx", name=name, answer=answer, supported_sizes=sizes, source=str(path),
-                                  depth_fn=depth_fn)
+                                  depth_fn=depth_fn, own_call=own_call, own_round=own_round)
     probe(predictor)
     return predictor
 

@@ -65,8 +65,3 @@ class PaperPredictor(MLPPredictor):
         point, normal = decode_paper(self.mlp(paper_inputs(p, R)), p, sA)
         depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1] if with_depth else np.full(len(p), np.nan)
         return point, normal, depth
-
-    def _predict_compiled(self, p, R, sA, sB, with_depth: bool):
-        from learned_contact.compiled import paper_predict
-
-        return paper_predict(p, R, sA, sB, self.supported_sizes, *self._packed, with_depth)

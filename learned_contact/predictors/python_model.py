@@ -17,6 +17,7 @@ directory added at the end of sys.path (so `my_model.py` beside the scene works)
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import re
@@ -73,6 +74,20 @@ def _call(spec: str, method, p, R, sA, sB):
                                    f"{type(exc).__name__} on a batch of {len(p)} poses: {str(exc)[:200]}") from None
 
 
+@contextlib.contextmanager
+def _own_round(spec: str, calls: int):
+    """`calls` calls of the model's own predict in a row (ExternalPredictor.own_round) under calls x
+    the call bound; whatever they raise becomes PredictorOutputError naming the model."""
+    try:
+        with limits.python_deadline(f"Python model {spec}", what=f"{calls} of its own calls in a row", calls=calls):
+            yield
+    except PredictorOutputError:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the user's code may raise anything
+        raise PredictorOutputError(f"Python model {spec}: predict raised {type(exc).__name__} when called on its own: "
+                                   f"{str(exc)[:200]}") from None
+
+
 def load_python(spec: str) -> ExternalPredictor:
     """The model named by `module:attribute` behind the Predictor interface; anything the
     user's code raises while it is loaded and probed is one WeightsError line."""
@@ -122,6 +137,8 @@ def _load_python(spec: str) -> ExternalPredictor:
     depth_fn = (lambda p, R, sA, sB: _call(spec, depth, p, R, sA, sB)) if callable(depth) else None
     name = str(getattr(target, "name", None) or spec.rpartition(":")[2])
     predictor = ExternalPredictor(kind="python", name=name, answer=answer, supported_sizes=sizes, source=spec,
-                                  depth_fn=depth_fn)
+                                  depth_fn=depth_fn,
+                                  own_call=lambda p, R, sA, sB: lambda: target.predict(p, R, size_A=sA, size_B=sB),
+                                  own_round=lambda calls: _own_round(spec, calls))
     probe(predictor)
     return predictor

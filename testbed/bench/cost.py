@@ -3,12 +3,15 @@
 Per predictor, on the same stacking and general poses: seconds per pair asked one pair
 per call (a simulator's per-contact call) and batched (every pair of a step in one
 call), and the first-call cost (importing learned_contact, loading the model and
-answering one pose, in a fresh Python process: what a simulator pays at start-up, with
-numba's on-disk cache as this machine has it). References measured in the same run:
+answering one pose, in a fresh Python process: what a simulator pays at start-up; the
+native core is built at install, so nothing compiles). References measured in the same run:
 Drake's point-pair query (set the pose, then query: what the labels cost per pair) and the
 shipped improved predictor's compiled path; every figure is also given as a ratio to those
-(< 1: cheaper). The timing itself is learned_contact.evaluation.cost's (the query study and the
-benchmark script use the same).
+(< 1: cheaper). For a model the testbed did not ship the model's own call (onnxruntime's
+session.run, the Python object's predict) is timed beside the full call, and the wrapper's
+share (the per-call bound, the testbed's checks, depth and clipping) is their difference.
+The timing itself is learned_contact.evaluation.cost's (the query study and the benchmark
+script use the same).
 """
 
 from __future__ import annotations
@@ -37,12 +40,17 @@ def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: in
 
 
 def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:
-    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} of the predictor `spec`."""
+    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} [s] of the predictor `spec`
+    (and the model's own and the wrapper's figures, learned_contact.evaluation.cost.predictor_cost)."""
     return {"first_call_s": first_call_s(spec), **_timed(load_predictor(spec), singles, batched, repeats)}
 
 
 def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
     """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process.
+    Costs [s per pair] as learned_contact.evaluation.cost.predictor_cost (for a model the testbed did
+    not ship: the full call, the model's own call and the wrapper's share); ratios to Drake's
+    point-pair query and to the shipped predictor are of the full call, and for such a model also
+    of its own call ("model_single_vs_drake_point", "model_batched_vs_drake_point").
     A model that declares fewer container sizes is timed on the poses of its own sizes
     (bench.accuracy.covered; the cost of a pair hardly depends on its pose)."""
     singles, batched = poses(data)
@@ -60,6 +68,9 @@ def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
                      "batched_vs_drake_point": c["batched_s_per_pair"] / drake,
                      "single_vs_improved_compiled": c["single_s_per_pair"] / reference["single_s_per_pair"],
                      "batched_vs_improved_compiled": c["batched_s_per_pair"] / reference["batched_s_per_pair"]}
+        if "model_single_s_per_pair" in c:  # the model's own call beside the full one (the same ratios)
+            out[spec].update({"model_single_vs_drake_point": c["model_single_s_per_pair"] / drake,
+                              "model_batched_vs_drake_point": c["model_batched_s_per_pair"] / drake})
     return {"predictors": out, "references": {
         "drake_point_pair_set_pose_and_query_s_per_pair": drake,
         "improved_compiled_single_s_per_pair": reference["single_s_per_pair"],

@@ -117,6 +117,9 @@ def _cost(data: dict) -> Section:
             for s in data["leaderboard"] for c in [data["predictors"][s]["cost"]]]
     integrator = [(data["predictors"][s]["label"], _n(c.get("model_single_s_per_pair"), 1e6),
                    _n(c.get("model_batched_s_per_pair"), 1e6),
+                   f"{_n(c.get('model_single_vs_drake_point'), fmt='.2g')} / "
+                   f"{_n(c.get('model_batched_vs_drake_point'), fmt='.2g')}",
+                   f"{_n(c.get('wrapper_single_s_per_pair'), 1e6)} / {_n(c.get('wrapper_batched_s_per_pair'), 1e6)}",
                    f"{_share(c['single_s_per_pair'], c.get('model_single_s_per_pair'))} / "
                    f"{_share(c['batched_s_per_pair'], c.get('model_batched_s_per_pair'))}",
                    *_loop(data["predictors"][s]))
@@ -129,12 +132,16 @@ def _cost(data: dict) -> Section:
              f"us/pair single, {ref['improved_compiled_batched_s_per_pair'] * 1e6:.3g} us/pair batched."),
         table(["predictor", "first call [s]", "us/pair single", "us/pair batched", "single / Drake point",
                "batched / Drake point", "single / improved compiled", "batched / improved compiled"], rows),
-        Text("What an integrator pays: the model alone (for a model the testbed did not ship: its own answer "
-             "function, e.g. onnxruntime's session.run, without the bench's checks, depth and clipping), the "
-             "wrapper's share of each call, and per step in the closed loop (median over the scenes benched): the "
-             "predictor's call, the rest of the learned system and the host's (Drake's) step."),
-        table(["predictor", "model alone us/pair single", "model alone us/pair batched", "wrapper's share single / batched",
-               "in the loop: predictor us/step", "learned system us/step", "host step us/step"], integrator)], order=3)
+        Text("What an integrator pays: the model alone (for a model the testbed did not ship: its own call on "
+             "inputs prepared beforehand, onnxruntime's session.run or the Python object's predict, timed side by side "
+             "with the full call above), the wrapper's cost per pair (the full call less the model's own: the "
+             "per-call bound, input conversion, the bench's checks, depth and clipping) and its share of each call, "
+             "and per step in the closed loop (median over the scenes benched): the predictor's call, the rest of "
+             "the learned system and the host's (Drake's) step. '-' and 'n/a': a shipped predictor has no wrapper."),
+        table(["predictor", "model alone us/pair single", "model alone us/pair batched",
+               "model alone / Drake point single / batched", "wrapper us/pair single / batched",
+               "wrapper's share single / batched", "in the loop: predictor us/step", "learned system us/step",
+               "host step us/step"], integrator)], order=3)
 
 
 def _scenes(data: dict) -> Section:

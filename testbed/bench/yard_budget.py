@@ -17,10 +17,18 @@ The host's step is measured on a yard of `host_size` containers (default 96, the
 yard_block's 4 x 6 x 4) by testbed.studies.scale's cell of the MuJoCo-hosted learned loop
 (its 'engine_step': MuJoCo's integration and its quay contact) when that engine is
 registered, else of the Drake-hosted one (Drake's step); or given by the caller.
+
+For a model the testbed did not ship, its own call alone (onnxruntime's session.run, the
+Python object's predict: ExternalPredictor.own_call) is timed beside the full call at each
+batch size, in the same rounds, and fitted the same way (fields prefixed 'model_'): what the
+model itself costs a simulator, apart from the testbed's wrapper (the per-call bound, the
+input checks, depth and clipping). The per-call bound is one watchdog thread per process
+(learned_contact.predictors.limits), so neither figure holds a thread started per call.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import time
@@ -50,25 +58,55 @@ def stacking_poses(k: int, type_name: str = "1AA", seed: int = 0):
     return p, R, sizes, sizes.copy()
 
 
-def call_costs(predictor, batch_sizes=BATCH_SIZES, repeats: int = 3, type_name: str = "1AA") -> list[float]:
-    """[s] wall time of one batched predict call per batch size (best of `repeats` rounds;
-    each round repeats small calls until it lasts about 5 ms, for the timer's resolution)."""
+def _calls_per_round(fn, within) -> int:
+    """How many calls of fn() last about 5 ms (for the timer's resolution), 1 to 1000, from one
+    call run inside within(1) (fn has answered once before: this call is not the first)."""
+    t0 = time.perf_counter()
+    with within(1):
+        fn()
+    return max(1, min(1000, int(5e-3 / max(time.perf_counter() - t0, 1e-7))))
+
+
+def side_by_side_costs(predictor, batch_sizes=BATCH_SIZES, repeats: int = 3, type_name: str = "1AA") -> dict:
+    """{'call_s': [s] wall time of one full batched predict call per batch size, 'model_call_s':
+    the model's own call alone on the same poses (predictor.own_call: a model the testbed did
+    not ship) or None}: best of `repeats` rounds, the two timed in turn within each round; each
+    round repeats small calls until it lasts about 5 ms."""
     p, R, sA, sB = stacking_poses(max(batch_sizes), type_name)
-    out = []
+    own = getattr(predictor, "own_call", None)
+    full, alone = [], []
     for k in batch_sizes:
         args = (p[:k], R[:k], sA[:k], sB[:k])
-        predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])  # warm
-        t0 = time.perf_counter()
-        predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])
-        calls = max(1, min(1000, int(5e-3 / max(time.perf_counter() - t0, 1e-7))))
-        best = math.inf
+        # (a call, the context a round of n of them runs in): the model's own calls are bounded
+        # one round at a time (ExternalPredictor.own_round), the full call bounds itself
+        fns = [(lambda a=args: predictor.predict(a[0], a[1], size_A=a[2], size_B=a[3]), _unbounded)]
+        if own is not None:
+            fns.append((own(*args), predictor.own_round))
+        for fn, within in fns:
+            with within(1):
+                fn()  # warm
+        calls = [_calls_per_round(fn, within) for fn, within in fns]
+        best = [math.inf] * len(fns)
         for _ in range(repeats):
-            t0 = time.perf_counter()
-            for _ in range(calls):
-                predictor.predict(args[0], args[1], size_A=args[2], size_B=args[3])
-            best = min(best, (time.perf_counter() - t0) / calls)
-        out.append(best)
-    return out
+            for i, ((fn, within), n) in enumerate(zip(fns, calls)):
+                t0 = time.perf_counter()
+                with within(n):
+                    for _ in range(n):
+                        fn()
+                best[i] = min(best[i], (time.perf_counter() - t0) / n)
+        full.append(best[0])
+        alone.append(best[-1])
+    return {"call_s": full, "model_call_s": alone if own is not None else None}
+
+
+def _unbounded(calls: int):
+    """No bound over a round: the full predict call bounds each model call itself."""
+    return contextlib.nullcontext()
+
+
+def call_costs(predictor, batch_sizes=BATCH_SIZES, repeats: int = 3, type_name: str = "1AA") -> list[float]:
+    """[s] wall time of one batched predict call per batch size (side_by_side_costs' 'call_s')."""
+    return side_by_side_costs(predictor, batch_sizes, repeats, type_name)["call_s"]
 
 
 def fit_call_cost(batch_sizes, seconds) -> tuple[float, float]:
@@ -116,7 +154,10 @@ def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
     """{'step_s', 'host' (host_step's dict), 'predictors': {spec: {'label', 'batch_sizes',
     'call_s' (per size), 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'} or,
     when its calls failed, {'label', 'why'}}} for each predictor in `specs` (learned_contact.sources
-    strings), measured side by side."""
+    strings), measured side by side. The figures are of the full predict call; for a model the
+    testbed did not ship the same five of its own call alone follow, prefixed 'model_'
+    ('model_pairs_within_step': what the model itself leaves room for, without the testbed's
+    wrapper)."""
     host = settings.host if settings.host is not None else host_step(settings.host_size, step_s=settings.step_s)
     out = {}
     for spec in specs:
@@ -127,19 +168,28 @@ def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
             type_name = next((n for n, t in CONTAINER_TYPES.items()
                               if np.abs(supported - np.asarray(t.size)).max(axis=1).min() <= 1e-3), type_name)
         try:
-            seconds = call_costs(pred, settings.batch_sizes, settings.repeats, type_name)
+            timed = side_by_side_costs(pred, settings.batch_sizes, settings.repeats, type_name)
         except Exception as e:  # noqa: BLE001 - a model that cannot answer these poses: a row that says so
             out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
                          "why": f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"}
             continue
-        fixed, per_pair = fit_call_cost(settings.batch_sizes, seconds)
         spare = settings.step_s - host["host_step_s"]
-        out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "call_s": seconds,
-                     "fixed_s": fixed, "per_pair_s": per_pair, "container_type": type_name,
-                     "pairs_within_step": pairs_within(spare, fixed, per_pair) if math.isfinite(spare) else None,
-                     "pairs_beside_loop": (pairs_within(spare - host["learned_system_s"], fixed, per_pair)
-                                           if math.isfinite(spare) else None)}
+        out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
+                     **_budget(timed["call_s"], settings.batch_sizes, spare, host["learned_system_s"])}
+        if timed["model_call_s"] is not None:  # the model's own call, beside the full one
+            own = _budget(timed["model_call_s"], settings.batch_sizes, spare, host["learned_system_s"])
+            out[spec].update({f"model_{k}": v for k, v in own.items()})
     return {"step_s": settings.step_s, "host": host, "predictors": out}
+
+
+def _budget(seconds, batch_sizes, spare_s: float, learned_system_s: float) -> dict:
+    """{'call_s', 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'} of calls
+    that took `seconds` [s] at `batch_sizes`, within spare_s [s] of the step (NaN: no budget)."""
+    fixed, per_pair = fit_call_cost(batch_sizes, seconds)
+    known = math.isfinite(spare_s)
+    return {"call_s": list(seconds), "fixed_s": fixed, "per_pair_s": per_pair,
+            "pairs_within_step": pairs_within(spare_s, fixed, per_pair) if known else None,
+            "pairs_beside_loop": pairs_within(spare_s - learned_system_s, fixed, per_pair) if known else None}
 
 
 def budget_section(budget: dict, order: int = 45) -> Section:
@@ -156,9 +206,23 @@ def budget_section(budget: dict, order: int = 45) -> Section:
     def n(v):
         return "-" if v is None else str(v)
 
+    def alone(p):
+        if "model_fixed_s" not in p:
+            return ["-", "-"]
+        return [f"{p['model_fixed_s'] * 1e6:.1f} + {p['model_per_pair_s'] * 1e6:.3f} per pair",
+                n(p["model_pairs_within_step"])]
+
     rows = [[p["label"], f"{p['fixed_s'] * 1e6:.1f}", f"{p['per_pair_s'] * 1e6:.3f}", n(p["pairs_within_step"]),
-             n(p["pairs_beside_loop"])] if "why" not in p else [p["label"], "-", "-", f"not measured: {p['why']}", "-"]
+             n(p["pairs_beside_loop"]), *alone(p)] if "why" not in p
+            else [p["label"], "-", "-", f"not measured: {p['why']}", "-", "-", "-"]
             for p in budget["predictors"].values()]
+    note = Text("For a model the testbed did not ship, the last two columns time its own call alone (onnxruntime's "
+                "session.run, the Python object's predict) beside the full call: the rest of the full call is the "
+                "testbed's wrapper (the per-call bound, input checks, depth, clipping), which a simulator calling the "
+                "model directly does not pay.")
     return Section("Yard budget", [key, table(["predictor", "fixed cost per call [us]", "per pair [us]",
                                                "pairs within the step beside the host",
-                                               "pairs beside the host and the learned system"], rows)], order=order)
+                                               "pairs beside the host and the learned system",
+                                               "the model alone: fixed + per pair [us]",
+                                               "the model alone: pairs within the step beside the host"], rows),
+                                   note], order=order)

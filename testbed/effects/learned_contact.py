@@ -35,7 +35,7 @@ import typing
 import numpy as np
 from pydrake.systems.framework import LeafSystem
 
-from learned_contact import WeightsError, load_predictor  # compiled (numba) inference; no torch
+from learned_contact import WeightsError, load_predictor  # native-core inference; no torch
 from learned_contact.interface import SIZE_TOLERANCE
 from testbed.contact.surfaces import angle_between
 from testbed.effects import register

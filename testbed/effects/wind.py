@@ -34,9 +34,44 @@ class WindConfig:
 def projected_area(size, R_WC, direction_W) -> float:
     """Area [m^2] of a box of full extents `size` (3,) with orientation R_WC (3, 3),
     projected on the plane normal to the unit vector `direction_W` (3,)."""
-    lx, ly, lz = size
-    face_areas = np.array([ly * lz, lx * lz, lx * ly])  # faces normal to x, y, z of C
-    return float(np.sum(face_areas * np.abs(R_WC.T @ direction_W)))
+    return float(_projected_areas(_face_areas(size), np.asarray(R_WC, float)[None], direction_W)[0])
+
+
+def _face_areas(sizes) -> np.ndarray:
+    """(k, 3) [m^2] the areas of the faces normal to x, y, z of boxes of full extents sizes (k, 3)."""
+    sizes = np.asarray(sizes, float).reshape(-1, 3)
+    return np.column_stack([sizes[:, 1] * sizes[:, 2], sizes[:, 0] * sizes[:, 2], sizes[:, 0] * sizes[:, 1]])
+
+
+def _projected_areas(faces, R_WC, direction_W) -> np.ndarray:
+    """(k,) [m^2] boxes of face areas faces (k, 3), orientations R_WC (k, 3, 3), projected on
+    the plane normal to direction_W (3,): sum_i face_i |R_WC[:, i] . d|."""
+    return np.einsum("ki,ki->k", faces, np.abs(np.einsum("kji,j->ki", R_WC, np.asarray(direction_W, float))))
+
+
+class WindLaw:
+    """The wind load on k containers at once, the one statement of the law (the module
+    docstring): Drake's WindLoad and both MuJoCo engines call it. sizes (k, 3) [m] full extents."""
+
+    def __init__(self, config: "WindConfig", sizes):
+        angle = math.radians(config.direction_deg)
+        self.direction = np.array([math.cos(angle), math.sin(angle), 0.0])  # unit, in W
+        self.pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient  # [Pa]
+        self.ramp = config.ramp_time  # [s]
+        self.faces = _face_areas(sizes)
+
+    def forces_W(self, R_WC, t: float) -> np.ndarray:
+        """(k, 3) [N] the force on each container (orientations R_WC (k, 3, 3)) at time t [s],
+        applied at its geometric centre: pressure x projected area, along the wind, ramped."""
+        scale = 1.0 if self.ramp <= 0 else min(1.0, t / self.ramp)
+        area = _projected_areas(self.faces, R_WC, self.direction)  # [m^2]
+        return (scale * self.pressure * area)[:, None] * self.direction
+
+    def mujoco_rows(self, R_WC, com_B, t: float) -> np.ndarray:
+        """(k, 6) rows of MuJoCo's xfrc_applied [force, torque about the COM, in W]: the force
+        at the geometric centre C, whose COM is com_B (k, 3) [m] from C in C."""
+        f = self.forces_W(R_WC, t)
+        return np.hstack([f, np.cross(-np.einsum("kij,kj->ki", R_WC, com_B), f)])
 
 
 class WindLoad(LeafSystem):
@@ -47,10 +82,7 @@ class WindLoad(LeafSystem):
         specs = [c for c in assembly.scenario.containers if not c.fixed]
         self._bodies = [assembly.bodies[c.name] for c in specs]
         self._sizes = [c.container_type().size for c in specs]
-        angle = math.radians(config.direction_deg)
-        self._direction_W = np.array([math.cos(angle), math.sin(angle), 0.0])
-        self._pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient  # [Pa]
-        self._ramp = config.ramp_time
+        self._law = WindLaw(config, np.array(self._sizes, dtype=float).reshape(-1, 3))
         self._poses = self.DeclareAbstractInputPort("body_poses", plant.get_body_poses_output_port().Allocate())
         self.DeclareAbstractOutputPort(
             "spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]), self._calc
@@ -60,17 +92,14 @@ class WindLoad(LeafSystem):
         assembly.add_spatial_forces(self.get_output_port())
 
     def _calc(self, context, output) -> None:
-        t = context.get_time()
-        scale = 1.0 if self._ramp <= 0 else min(1.0, t / self._ramp)
         poses = self._poses.Eval(context)
+        R_WC = np.array([poses[int(body.index())].rotation().matrix() for body in self._bodies]).reshape(-1, 3, 3)
         forces = []
-        for body, size in zip(self._bodies, self._sizes):
-            R_WC = poses[int(body.index())].rotation().matrix()
+        for body, f_W in zip(self._bodies, self._law.forces_W(R_WC, context.get_time())):
             f = ExternallyAppliedSpatialForce()
             f.body_index = body.index()
             f.p_BoBq_B = np.zeros(3)  # geometric centre = body origin
-            magnitude = scale * self._pressure * projected_area(size, R_WC, self._direction_W)
-            f.F_Bq_W = SpatialForce(tau=np.zeros(3), f=magnitude * self._direction_W)
+            f.F_Bq_W = SpatialForce(tau=np.zeros(3), f=f_W)
             forces.append(f)
         output.set_value(forces)
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from testbed.effects.learned_dynamics.force_law import FITTED_KAPPA, KAPPA_MODULUS, fit_pressure_stiffness
-from testbed.effects.learned_dynamics.kernels import elastic_one
+from testbed.effects.learned_dynamics.step import elastic
 from testbed.errors import ScenarioError
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario
@@ -51,7 +51,7 @@ def _drake_and_law(rpy, offset, overlap):
     p = np.array([offset[0], offset[1], 2 * h[2] - overlap])
     (surface,) = ContainerPair("1CC", "1CC", modulus=KAPPA_MODULUS).set_pose(p, R).ComputeContactSurfaces(HydroelasticContactRepresentation.kPolygon)
     drake = np.linalg.norm(static_pressure(surface_face_arrays(surface)).force)
-    law, _ = elastic_one(p, R, h, h, FITTED_KAPPA[frozenset(["1CC"])], 4)
+    law = elastic(p, R, h, h, FITTED_KAPPA[frozenset(["1CC"])], 4)[0]
     return drake, law
 
 

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from testbed import shipped_scenes
-from testbed.effects.learned_dynamics import kernels
 from testbed.effects.learned_dynamics.force_law import carried_masses
+from testbed.effects.learned_dynamics.step import candidate_pairs
 from testbed.errors import ScenarioError
 from testbed.scenario import load_scenario
 
@@ -90,22 +90,36 @@ def test_every_shipped_yard_is_accepted_at_its_1ms_step(name):
     assert worst < 4.0
 
 
-def _all_pairs(m, free):
-    ia, ib = np.triu_indices(m, 1)
+def _near_all_pairs(p, R, half, free, margin):
+    """The candidates by brute force, in numpy (the oracle): every pair i < j with one body
+    free whose bounding spheres are within margin and no face axis (A's 3, B's 3) separates
+    by more than margin: (ia, ib, p_AB (k, 3), R_AB (k, 3, 3))."""
+    radius = np.linalg.norm(half, axis=1)
+    ia, ib = np.triu_indices(len(p), 1)
     keep = free[ia] | free[ib]
-    return ia[keep].astype(np.int64), ib[keep].astype(np.int64)
+    keep &= np.sum((p[ib] - p[ia]) ** 2, axis=1) < (radius[ia] + radius[ib] + margin) ** 2
+    ia, ib = ia[keep], ib[keep]
+    p_AB = np.einsum("kca,kc->ka", R[ia], p[ib] - p[ia])
+    R_AB = np.einsum("kca,kce->kae", R[ia], R[ib])
+    hA, hB = half[ia], half[ib]
+    over_A = hA - np.abs(p_AB) + np.einsum("kij,kj->ki", np.abs(R_AB), hB)
+    over_B = hB - np.abs(np.einsum("kij,ki->kj", R_AB, p_AB)) + np.einsum("kij,ki->kj", np.abs(R_AB), hA)
+    near = np.minimum(over_A.min(axis=1), over_B.min(axis=1)) > -margin
+    return ia[near], ib[near], p_AB[near], R_AB[near]
 
 
 @pytest.mark.parametrize("name", ["nine_mixed_stack", "bridge", "crane_landing_sway", "stack_slide_rest", "yard_small", "yard_crane_slot"])
 def test_the_broad_phase_finds_the_pairs_all_pairs_find(name):
-    """On shipped scenes' poses, shaken (tilts to 0.1 rad, shifts to 0.3 m, seeded), near_pairs on
-    the broad phase's candidates keeps exactly the pairs it keeps on all N(N-1)/2, in the same order."""
+    """On shipped scenes' poses, shaken (tilts to 0.1 rad, shifts to 0.3 m, seeded), the native
+    step's candidates (broad phase, then the narrow tests) are exactly the pairs a brute-force
+    test of all N(N-1)/2 keeps, in the same (ia, ib) order, with the same poses in A."""
     specs = load_scenario(name).containers
-    half = np.array([0.5 * np.asarray(c.container_type().size) for c in specs])
-    radius = np.linalg.norm(half, axis=1)
+    size = np.array([np.asarray(c.container_type().size) for c in specs], dtype=float)
+    half = 0.5 * size
     free = np.array([not c.fixed for c in specs])
     p0 = np.array([c.pose().translation() for c in specs])
     rng = np.random.default_rng(29)
+    found = 0
     for trial in range(50):
         scale = trial / 50
         p = p0 + scale * rng.uniform(-0.3, 0.3, p0.shape)
@@ -117,12 +131,14 @@ def test_the_broad_phase_finds_the_pairs_all_pairs_find(name):
             Rz = np.array([[np.cos(c), -np.sin(c), 0], [np.sin(c), np.cos(c), 0], [0, 0, 1]])
             R.append(Rz @ Ry @ Rx)
         R = np.array([Ri @ c.pose().rotation().matrix() for Ri, c in zip(R, specs)])
-        ia, ib = _all_pairs(len(specs), free)
-        keep, p_AB, R_AB = kernels.near_pairs(p, R, ia, ib, half, radius, free, 0.05)
-        ca, cb = kernels.broad_phase(p, R, half, free, 0.05)
-        keep2, p_AB2, R_AB2 = kernels.near_pairs(p, R, ca, cb, half, radius, free, 0.05)
-        assert np.array_equal(np.stack([ia[keep], ib[keep]]), np.stack([ca[keep2], cb[keep2]]))
-        assert np.array_equal(p_AB, p_AB2) and np.array_equal(R_AB, R_AB2)
+        ia, ib, p_AB, R_AB = _near_all_pairs(p, R, half, free, 0.05)
+        ca, cb, p_AB2, R_AB2, n_broad = candidate_pairs(size, free, p, R, 0.05)
+        assert np.array_equal(np.stack([ia, ib]), np.stack([ca, cb]))
+        np.testing.assert_allclose(p_AB2, p_AB, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(R_AB2, R_AB, rtol=0, atol=1e-14)
+        assert n_broad >= len(ca)
+        found += len(ca)
+    assert found > 0
 
 
 def test_the_broad_phase_grows_about_linearly_on_a_yard():
@@ -130,12 +146,12 @@ def test_the_broad_phase_grows_about_linearly_on_a_yard():
     counts = []
     for rows, bays in ((2, 2), (4, 6), (6, 8)):
         specs = load_scenario("yard_block", overrides=[f"yards[0].rows={rows}", f"yards[0].bays={bays}"]).containers
-        half = np.array([0.5 * np.asarray(c.container_type().size) for c in specs])
+        size = np.array([np.asarray(c.container_type().size) for c in specs], dtype=float)
         p = np.array([c.pose().translation() for c in specs])
         R = np.array([np.eye(3)] * len(specs))
-        ca, cb = kernels.broad_phase(p, R, half, np.ones(len(specs), bool), 0.05)
-        counts.append(len(ca) / len(specs))
-        assert len(ca) == rows * bays * 3  # the stacked pairs, nothing across the 0.4 / 0.6 m gaps
+        *_, n_broad = candidate_pairs(size, np.ones(len(specs), bool), p, R, 0.05)
+        counts.append(n_broad / len(specs))
+        assert n_broad == rows * bays * 3  # the stacked pairs, nothing across the 0.4 / 0.6 m gaps
     assert max(counts) < 1.0
 
 

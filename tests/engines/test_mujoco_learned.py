@@ -106,23 +106,31 @@ def test_a_step_the_explicit_law_cannot_take():
     assert "unstable" in run.trajectory.error and run.trajectory.simulated_s == 0 and len(run.contacts["step"]) == 0
 
 
-def test_vectorised_wind_is_the_mujoco_engines():
-    """WindForces on all containers at once equals run.py's wind_force_W per container (applied at C)."""
-    from testbed.engines.mujoco.run import wind_force_W
-    from testbed.engines.mujoco_learned.loop import WindForces
+def test_one_wind_law_for_every_engine():
+    """The one wind law (testbed/effects/wind.py's WindLaw, which Drake's WindLoad and both
+    MuJoCo engines call): per container pressure 0.5 rho v^2 Cd on the projected area, along
+    the wind, ramped, applied at C (MuJoCo's row: the torque about the COM), restated here."""
+    import math
+
+    from testbed.effects.wind import WindLaw
     from testbed.geometry.rotations import rotation_from_quaternion
 
     s = load_scenario("yard_wind")
+    w = s.effects.wind
     free = [c for c in s.containers if not c.fixed][:4]
     sizes = np.array([c.container_type().size for c in free], dtype=float)
     com = np.array([[0.3, -0.1, 0.2]] * len(free))
     q = np.random.default_rng(1).standard_normal((len(free), 4))
     R = rotation_from_quaternion(q / np.linalg.norm(q, axis=1, keepdims=True))
-    got = WindForces(s.effects.wind, sizes, com).wrenches(R, 0.7)
+    t = 0.7 * w.ramp_time
+    got = WindLaw(w, sizes).mujoco_rows(R, com, t)
+    d = np.array([math.cos(math.radians(w.direction_deg)), math.sin(math.radians(w.direction_deg)), 0.0])
     for k in range(len(free)):
-        f = wind_force_W(s.effects.wind, sizes[k], R[k], 0.7)
+        lx, ly, lz = sizes[k]
+        area = sum(a * abs(R[k][:, i] @ d) for i, a in enumerate((ly * lz, lx * lz, lx * ly)))
+        f = 0.7 * 0.5 * w.air_density * w.speed**2 * w.drag_coefficient * area * d
+        assert np.linalg.norm(f) > 0
         np.testing.assert_allclose(got[k], np.concatenate([f, np.cross(-(R[k] @ com[k]), f)]), rtol=1e-12, atol=1e-9)
-
 
 def test_a_blow_up_ends_the_run_with_an_error():
     """A state past MAX_SPEED (here a box launched at 150 m/s) ends the run there, saying so,

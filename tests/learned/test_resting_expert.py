@@ -155,7 +155,7 @@ def test_the_hand_over_is_continuous(shipped, quantity, bounds):
 
 
 def test_compiled_equals_numpy_where_the_expert_answers():
-    """The numba kernel's gate and expert against the numpy reference on resting and
+    """The native core's gate and expert against the numpy reference on resting and
     resting_wide poses (ramps included) and on near-level ones (the slab ratio's ramp), to
     the tolerance the compiled tests hold (1e-9)."""
     fast, ref = load_predictor(), load_predictor(compiled=False)
@@ -326,7 +326,7 @@ def test_the_support_gate_is_the_same_in_every_frame_and_trained_where_it_opens(
 
 
 def test_compiled_equals_numpy_with_the_support_gate(support_paths):
-    """The numba kernel's support layout against the numpy reference (1e-9), ramps included:
+    """The native core's support layout against the numpy reference (1e-9), ramps included:
     resting_support (overhangs to the edge of support, 20 ft/40 ft pairs), resting_wider."""
     for k, dist in enumerate(("resting_support", "resting_wider", "resting")):
         p, R, sA, sB = probe_poses(1500, 71 + k, dist)

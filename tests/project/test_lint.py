@@ -30,12 +30,11 @@ def test_ruff_finds_nothing():
 # ----------------------------------------------------------------------------- imports at the top
 # A function-local import of the project's own modules hides a dependency from readers and
 # tools. Allowed: the `run` functions of testbed/commands/ (the CLI imports every command
-# module to build its parser, so its start-up stays light), the modules below (they load
-# numba and its cached machine code), and the functions of ALLOWED, each with its reason.
+# module to build its parser, so its start-up stays light) and the functions of ALLOWED, each
+# with its reason.
 # Lazy imports of optional heavy packages (torch, mujoco, fcl, ray, matplotlib, onnxruntime,
 # playwright) are not project modules and stay where they are.
 PROJECT = ("testbed", "learned_contact")
-NUMBA_MODULES = ("learned_contact.compiled", "testbed.effects.learned_dynamics.kernels")  # only what runs a kernel loads numba
 _CLI = "called only by the command's `run`: the CLI's start-up stays light"
 _DRAKE = "keeps Drake (pydrake) out of a module that imports without it"
 _ENGINE = "an engine's registration stays light: the CLI's parser lists the engines; its simulator loads when it runs"
@@ -87,7 +86,7 @@ def _function_local_imports(path: Path):
 def _allowed(rel: str, function: str, module: str) -> bool:
     if rel.startswith("testbed/commands/") and function == "run":
         return True
-    return module.startswith(NUMBA_MODULES) or (rel, function) in ALLOWED
+    return (rel, function) in ALLOWED
 
 
 def test_project_imports_are_at_the_top():

@@ -7,11 +7,13 @@ ExternallyAppliedSpatialForce: the normal force linearly implicit (backward Eule
 step's penetration, the touching pairs solved together by a few projected Gauss-Seidel sweeps
 warm-started from the last step), friction explicit (step n's force from step n's state).
 
-Nearby pairs, per step: a sort-and-sweep broad phase on the containers' world boxes
-(kernels.broad_phase, about N log N plus the boxes sharing the sweep axis's interval), then the
-narrow tests of kernels.near_pairs (bounding spheres, face axes) on its candidates only; the
-stick anchors are kept for the pairs in contact only (an abstract state keyed by pair), so the
-per-step work grows with the containers and the pairs touching, not with N(N-1)/2.
+The step itself (candidate pairs, the predictor's call, the force law, the wrenches) is the
+one both hosts call: step.ContactStep, the native core's contact step (native/src/step.c).
+Nearby pairs, per step: a sort-and-sweep broad phase on the containers' world boxes (about
+N log N plus the boxes sharing the sweep axis's interval), then the narrow tests (bounding
+spheres, face axes) on its candidates only; the stick anchors are kept for the pairs in
+contact only (an abstract state keyed by pair), so the per-step work grows with the
+containers and the pairs touching, not with N(N-1)/2.
 
 Per pair (A = lower body index, B = higher; n from A into B): line of action = the predicted
 point and normal; normal force = a Winkler foundation kappa [Pa/m] over the face overlap
@@ -50,11 +52,11 @@ from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.effects.learned_dynamics.force_law import law_modulus, pressure_stiffness, stability_numbers
+from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_drake
 from testbed.effects.learned_dynamics.truth import ClosedLoopRecords, ShadowTruth, summarize_truth
 from testbed.errors import ScenarioError
 
 MU_SDF = 0.4  # the models' mu_dynamic (sdf/README.md), what Drake's discrete solvers use
-NEAR = 0.05  # [m] pairs no face axis separates by this much are candidates (predicted)
 
 
 @dataclasses.dataclass
@@ -89,9 +91,6 @@ class LearnedDynamics(LeafSystem):
                  type_index: np.ndarray, modulus: float):
         super().__init__()
         self.set_name("learned_dynamics")
-        import testbed.effects.learned_dynamics.kernels as learned_force_kernels  # numba: only scenes that build the effect load it
-
-        self._K = learned_force_kernels
         plant = assembly.plant
         self._cfg, self._pred, self._mu = config, predictor, float(mu)
         self._h = plant.time_step()
@@ -100,28 +99,30 @@ class LearnedDynamics(LeafSystem):
         self._rows = np.array([assembly.body_names.index(c.name) for c in specs])  # container -> body_names index
         self._free = np.array([not c.fixed for c in specs])
         nq = plant.num_positions()
-        self._q_start = np.array([b.floating_positions_start() if f else -1 for b, f in zip(bodies, self._free)])
-        self._v_start = np.array([nq + b.floating_velocities_start_in_v() if f else -1 for b, f in zip(bodies, self._free)])
+        self._q_start = np.array([b.floating_positions_start() if f else -1 for b, f in zip(bodies, self._free)], dtype=np.int64)
+        self._v_start = np.array([nq + b.floating_velocities_start_in_v() if f else -1 for b, f in zip(bodies, self._free)],
+                                 dtype=np.int64)
         self._fixed_p = np.array([c.pose().translation() for c in specs]).reshape(-1, 3)  # (m, 3) [m]
         self._fixed_R = np.array([c.pose().rotation().matrix() for c in specs]).reshape(-1, 3, 3)
-        self._size = np.array([CONTAINER_TYPES[c.type].size for c in specs]).reshape(-1, 3)  # (m, 3) [m]
-        self._half = 0.5 * self._size
-        self._radius = np.linalg.norm(self._half, axis=1)
+        self._size = np.array([CONTAINER_TYPES[c.type].size for c in specs], dtype=float).reshape(-1, 3)  # (m, 3) [m]
         self._mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])  # [kg]
         self._I_Bo = np.array([b.default_rotational_inertia().CopyToFullMatrix3() for b in bodies]).reshape(-1, 3, 3)
         self._type = np.asarray(type_index, dtype=np.int64)  # (m,) container -> row of kappa_by_type
         self._kappa_tt = np.asarray(kappa_by_type, dtype=float)  # (T, T) [Pa/m] per size pair
         self._n = len(specs)
         self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
+        # the one contact step of both hosts (raises NativeCoreMissing without the compiled core)
+        self._step = ContactStep(self._size, self._free, self._mass, self._I_Bo, self._type, self._kappa_tt, config,
+                                 self._mu, self._h, predictor, NEAR)
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
         self.reset_costs()  # (again after the constructor's warm-up call below)
         truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None
         self.records = ClosedLoopRecords(self._rows, truth)  # the closed_loop table (with contact_log)
         self._x = self.DeclareVectorInputPort("plant_state", plant.num_multibody_states())
         # the held rows of the pairs in contact: (keys (s,) int64 = ia * m + ib, ascending;
-        # rows (s, kernels.ROW): the stick's material points in A and B [m] (6), stuck flag (1),
+        # rows (s, step.ROW): the stick's material points in A and B [m] (6), stuck flag (1),
         # last normal force [N] (1); absent = not stuck, no force), and each body's history
-        # (m, kernels.BODY): velocities and the normal wrench of the last step (NaN: none yet)
+        # (m, step.BODY): velocities and the normal wrench of the last step (NaN: none yet)
         self._anchor_state = self.DeclareAbstractState(AbstractValue.Make(self._no_history()))
         self._next_anchors = self._no_history()
         # an unrestricted update, like the plant's step (sampled ports): both read the same
@@ -137,9 +138,9 @@ class LearnedDynamics(LeafSystem):
         builder.AddSystem(self)
         builder.Connect(plant.get_state_output_port(), self._x)
         assembly.add_spatial_forces(self._out)
-        # compile or load the numba kernels now, not inside the first timed step
+        # the predictor's first call (a Python model's imports, caches) now, not inside the first timed step
         x0 = plant.GetPositionsAndVelocities(plant.CreateDefaultContext())
-        self.wrenches(*self._K.bodies_from_state(x0, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free))
+        self.wrenches(*self._bodies(x0))
         self._last, self._next_anchors = None, self._no_history()
         self.reset_costs()
         self._recording = "contact_log" in assembly.effects
@@ -148,11 +149,16 @@ class LearnedDynamics(LeafSystem):
 
     def _no_history(self) -> tuple:
         """The held state before the first step: no pair held, every body's history NaN."""
-        return _NO_KEYS, _NO_ROWS, np.full((self._n, self._K.BODY), np.nan)
+        return self._step.no_history()
+
+    def _bodies(self, x) -> tuple:
+        """(p, R, w, v) of the containers' body origins in W from the plant state x."""
+        return bodies_from_drake(x, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free)
 
     def reset_costs(self) -> None:
         """Zeroes the cost counters (see costs())."""
         self._cost = np.zeros(6)  # calc_s, predict_s, record_s [s]; calc_calls, predict_calls, predict_pairs
+        self._step.reset_costs()
 
     def costs(self) -> dict:
         """Wall time [s, perf_counter] spent since reset_costs(): calc_s in the output's calc
@@ -160,9 +166,9 @@ class LearnedDynamics(LeafSystem):
         call, record_s in the records (shadow truth included); calc_calls, predict_calls: how
         many of each; predict_pairs: the container pairs the predictor was asked about, summed
         over its calls (pair-steps: 0 when the model made no contact decision)."""
-        c = self._cost
-        return {"calc_s": float(c[0]), "predict_s": float(c[1]), "record_s": float(c[2]),
-                "calc_calls": int(c[3]), "predict_calls": int(c[4]), "predict_pairs": int(c[5])}
+        c, s = self._cost, self._step.costs()
+        return {"calc_s": float(c[0]), "predict_s": s["predict_s"], "record_s": float(c[2]),
+                "calc_calls": int(c[3]), "predict_calls": s["predict_calls"], "predict_pairs": s["predict_pairs"]}
 
     def touching(self, container: int) -> bool:
         """Whether container (scene index) was in learned contact at the latest computed step."""
@@ -174,11 +180,12 @@ class LearnedDynamics(LeafSystem):
         n_W, f_W (k, 3), fn, area (k,), p_AB (k, 3), R_AB (k, 3, 3), p_WA, R_WA (A's pose)."""
         if self._last is None or isinstance(self._last, dict):
             return self._last
-        ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R = self._last
-        touch = fn > 0
-        self._last = {"pairs": np.stack([ia[touch], ib[touch]], axis=1), "p_W": p_W[touch], "n_W": n_W[touch],
-                      "fn": fn[touch], "f_W": f_W[touch], "area": area[touch], "p_AB": p_AB[touch],
-                      "R_AB": R_AB[touch], "p_WA": p[ia[touch]], "R_WA": R[ia[touch]]}
+        pairs, p, R = self._last
+        touch = pairs.fn > 0
+        ia, ib = pairs.ia[touch], pairs.ib[touch]
+        self._last = {"pairs": np.stack([ia, ib], axis=1), "p_W": pairs.p_W[touch], "n_W": pairs.n_W[touch],
+                      "fn": pairs.fn[touch], "f_W": pairs.f_W[touch], "area": pairs.area[touch],
+                      "p_AB": pairs.p_AB[touch], "R_AB": pairs.R_AB[touch], "p_WA": p[ia], "R_WA": R[ia]}
         return self._last
 
     def _update_anchors(self, context, state) -> None:
@@ -191,8 +198,7 @@ class LearnedDynamics(LeafSystem):
         start = time.perf_counter()
         x = self._x.Eval(context)
         anchors = context.get_abstract_state(self._anchor_state).get_value()
-        wrench = self.wrenches(*self._K.bodies_from_state(x, self._q_start, self._v_start, self._fixed_p, self._fixed_R, self._free),
-                               anchors=anchors)
+        wrench = self.wrenches(*self._bodies(x), anchors=anchors)
         out = []
         for k in np.flatnonzero(self._free):
             f = self._forces[k]
@@ -206,34 +212,12 @@ class LearnedDynamics(LeafSystem):
         """(m, 6) [N m, N] torque about each body origin and force, in W, on each container,
         from body-origin positions p (m, 3) [m], rotations R_WB (m, 3, 3) and velocities
         w, v (m, 3) [rad/s, m/s] in W and the held state (keys, rows, history) of the pairs in
-        contact and the bodies (see _anchor_state; None = none). One predictor call for all
-        candidate pairs (broad phase, then near_pairs). Leaves the next held state in _next_anchors."""
-        cand_a, cand_b = self._K.broad_phase(p, R, self._half, self._free, NEAR)
-        keep, p_AB, R_AB = self._K.near_pairs(p, R, cand_a, cand_b, self._half, self._radius, self._free, NEAR)
-        self._last = {"pairs": np.zeros((0, 2), np.int64)}
-        if not len(keep):
-            self._next_anchors = (_NO_KEYS, _NO_ROWS, np.hstack([v, w, np.zeros((len(p), 6))]))
-            return np.zeros((len(p), 6))
-        ia, ib = cand_a[keep], cand_b[keep]
-        keys, rows, history = self._no_history() if anchors is None else anchors
-        kappa, held = self._K.gather_pairs(ia, ib, self._n, keys, rows, self._type, self._kappa_tt)
-        size_A, size_B = self._size[ia], self._size[ib]
-        start = time.perf_counter()
-        point_A, normal_A = self._pred.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
-        self._cost[1] += time.perf_counter() - start
-        self._cost[4] += 1
-        self._cost[5] += len(keep)
-        c = self._cfg
-        out, fn, f_W, p_W, n_W, area, anchors_next, stuck_next, history_next = self._K.pair_wrenches(
-            p, R, w, v, self._mass, self._I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
-            np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self._mu,
-            c.slip_speed, c.stiction, self._h, c.torsional_friction, c.grid,
-            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping,
-            np.ascontiguousarray(held[:, 7]), history, c.normal_sweeps)
-        # keys ascend as broad_phase's
-        self._next_anchors = (*self._K.pack_anchors(ia, ib, self._n, anchors_next, stuck_next, fn), history_next)
-        self._last = (ia, ib, fn, p_W, n_W, f_W, area, p_AB, R_AB, p, R)  # last() builds the dict on demand
-        return out
+        contact and the bodies (see _anchor_state; None = none): one step of step.ContactStep
+        (one predictor call for all candidate pairs). Leaves the next held state in _next_anchors."""
+        wrench, pairs = self._step.step(p, R, w, v, held=self._no_history() if anchors is None else anchors)
+        self._next_anchors = self._step.held()
+        self._last = (pairs, p, R)  # last() builds the dict on demand
+        return wrench
 
     def _record(self, context) -> None:
         self._out.Eval(context)  # the cached wrenches of this state
@@ -247,12 +231,12 @@ class LearnedDynamics(LeafSystem):
         elif isinstance(raw, dict):  # last() already ran on this state: its touching rows
             self.records.add(step, context.get_time(), (raw["pairs"][:, 0], raw["pairs"][:, 1], raw["fn"], raw["p_W"],
                                                         raw["n_W"], raw["f_W"], raw["area"]))
-        elif raw is not None:  # (ia, ib, fn, p_W, n_W, f_W, area, ...) of the candidate pairs
-            self.records.add(step, context.get_time(), raw[:7])
+        elif raw is not None:  # (StepPairs, p, R): the candidate pairs
+            pairs = raw[0]
+            self.records.add(step, context.get_time(), (pairs.ia, pairs.ib, pairs.fn, pairs.p_W, pairs.n_W, pairs.f_W,
+                                                        pairs.area))
         self._cost[2] += time.perf_counter() - start
 
-
-_NO_KEYS, _NO_ROWS = np.zeros(0, np.int64), np.zeros((0, 8))  # no pair held (rows: kernels.ROW = 8 columns)
 
 
 @register

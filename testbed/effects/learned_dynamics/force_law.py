@@ -1,6 +1,6 @@
 """The closed loop's force law: its stiffness fitted to Drake and the explicit step's
-stability numbers (no numba here: every scene load imports this; the per-step kernels
-are in testbed/effects/learned_dynamics/kernels.py, imported when a scene builds the effect).
+stability numbers (every scene load imports this; the per-step work is the native contact
+step, testbed/effects/learned_dynamics/step.py, used when a scene builds the effect).
 
 Used by testbed/effects/learned_dynamics/effect.py (its docstring states the law, the fit and
 the stability criterion). Frames: A is the first box's frame (origin at its centre, axes

@@ -19,12 +19,11 @@ Wall time: only the mj_step calls are timed (`wall_time_s`); recording is timed 
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 
 import numpy as np
 
-from testbed.effects.wind import projected_area
+from testbed.effects.wind import WindLaw
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, mujoco_module
 from testbed.geometry.rotations import rotation_from_quaternion
@@ -45,13 +44,8 @@ class MujocoRun:
 
 
 def wind_force_W(config, size, R_WC, t: float) -> np.ndarray:
-    """(3,) [N] wind force on a container at time t [s], as testbed/effects/wind.py's WindLoad:
-    pressure 0.5 rho v^2 Cd on the projected area, ramped linearly over ramp_time."""
-    angle = math.radians(config.direction_deg)
-    direction = np.array([math.cos(angle), math.sin(angle), 0.0])
-    scale = 1.0 if config.ramp_time <= 0 else min(1.0, t / config.ramp_time)
-    pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient
-    return scale * pressure * projected_area(size, R_WC, direction) * direction
+    """(3,) [N] wind force on one container at time t [s]: testbed/effects/wind.py's WindLaw."""
+    return WindLaw(config, np.asarray(size, float).reshape(1, 3)).forces_W(np.asarray(R_WC, float).reshape(1, 3, 3), t)[0]
 
 
 def _rotations(q: np.ndarray) -> np.ndarray:
@@ -160,8 +154,8 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
     qadr = np.array([model.jnt_qposadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
     vadr = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
     qidx, vidx = qadr[:, None] + np.arange(7), vadr[:, None] + np.arange(6)
-    wind = scenario.effects.wind
-    sizes = [c.container_type().size for c in free]
+    wind = None if scenario.effects.wind is None else WindLaw(
+        scenario.effects.wind, np.array([c.container_type().size for c in free], dtype=float).reshape(-1, 3))
     com_B = np.array([c.com_offset for c in free], dtype=float).reshape(-1, 3)
     reducer = _ContactReducer(model, tr.body_names)
     qpos, qvel, steps_done = [data.qpos[qidx].copy()], [data.qvel[vidx].copy()], 0
@@ -176,11 +170,8 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
         if wind is not None or crane is not None:
             data.xfrc_applied[:] = 0.0
         if wind is not None:
-            for j, body in enumerate(body_ids):
-                R = _rotations(data.qpos[qidx[j, 3:]])  # the current pose (xmat lags one step)
-                f = wind_force_W(wind, sizes[j], R, data.time)
-                data.xfrc_applied[body, :3] = f
-                data.xfrc_applied[body, 3:] = np.cross(-(R @ com_B[j]), f)  # applied at C, not the COM
+            R = _rotations(data.qpos[qidx[:, 3:]])  # the current poses (xmat lags one step)
+            data.xfrc_applied[body_ids] = wind.mujoco_rows(R, com_B, data.time)  # applied at C, not the COM
         if crane is not None:
             crane.apply(data, _rotations(data.qpos[qidx[j_crane, 3:]]))
         t0 = time.perf_counter()

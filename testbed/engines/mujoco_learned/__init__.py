@@ -2,12 +2,12 @@
 
 MuJoCo integrates the containers' rigid-body motion; a learned predictor decides every
 container-container contact with the force law of the Drake-hosted loop
-(testbed/effects/learned_dynamics: the same kernels), applied through xfrc_applied each step;
+(testbed/effects/learned_dynamics: the same contact step), applied through xfrc_applied each step;
 MuJoCo's own (matched) contact handles the quay. loop.py holds the run and says why.
 
 params: the predictor (any learned_contact.sources spec: improved, paper, a .npz or .onnx
 file, module:attribute; None: the scene's learned_dynamics predictor if it declares one, else
-"improved"). The registration stays light: loop.py, MuJoCo and numba load when a scene runs.
+"improved"). The registration stays light: loop.py, MuJoCo and the native step load when a scene runs.
 """
 
 from __future__ import annotations

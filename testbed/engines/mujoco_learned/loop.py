@@ -4,17 +4,17 @@ container-container contact (issue 29, deliverable 3).
 Per step (h = plant.time_step, semi-implicit Euler, MuJoCo's default integrator):
   1. mj_step1: MuJoCo's position and velocity stages at the step's state (poses xpos/xmat,
      its own contacts with the quay);
-  2. broad phase: kernels.broad_phase (sort and sweep on the containers' world boxes), then
-     kernels.near_pairs (bounding spheres, face axes, NEAR = 0.05 m): the candidate pairs;
-  3. predictor: ONE batched call, point_A and normal_A in A's frame for every candidate;
-  4. force law: kernels.pair_wrenches (the Winkler foundation normal force over the face
-     overlap, Hunt-Crossley dissipation, the anchored stick friction and torsion: the very
-     kernels of testbed/effects/learned_dynamics, with its config and kappa), wrenches about
-     each body origin C moved to the COM and written to xfrc_applied (plus wind and the
-     crane's ropes);
+  2-4. the learned contact step, the one the Drake-hosted loop calls
+     (testbed/effects/learned_dynamics/step.py: the native core's step, native/src/step.c):
+     candidate pairs (sort and sweep on the containers' world boxes, then bounding spheres and
+     face axes within NEAR = 0.05 m), ONE batched predictor call (point_A and normal_A in A's
+     frame for every candidate), the force law (the Winkler foundation normal force over the
+     face overlap, Hunt-Crossley dissipation, the anchored stick friction and torsion, with
+     the effect's config and kappa); its wrenches about each body origin C moved to the COM
+     and written to xfrc_applied (plus wind and the crane's ropes);
   5. mj_step2: MuJoCo's constraint solve (quay contact) and integration.
 The normal force is linearly implicit and friction explicit, as in the Drake-hosted loop (the
-same kernel and held state: anchors, last normal forces, each body's last-step history), so the
+same step and held state: anchors, last normal forces, each body's last-step history), so the
 same stability check applies (LearnedDynamicsEffect refuses a scene whose explicit part, the
 tilt stiffness, is unstable).
 
@@ -47,17 +47,17 @@ import time
 import numpy as np
 
 from testbed import variants
+from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_mujoco, wrench_to_mujoco
+from testbed.effects.wind import WindLaw
 from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, check_supported, mujoco_module
 from testbed.engines.mujoco.run import MujocoRun, _ContactReducer, steps_table, trajectory_of
-from testbed.engines.mujoco_learned import glue
 from testbed.errors import ScenarioError
 from testbed.geometry.boxes import box_box_signed_distance
 from testbed.scenario import validate_scenario
 from testbed.simulation import Trajectory
 
-NEAR = 0.05  # [m] candidate margin, the Drake-hosted loop's (learned_dynamics.effect.NEAR)
 MAX_SPEED = 100.0  # [m/s, rad/s] a state past this has blown up (no container in a yard moves so fast)
 MU_SDF = 0.4  # [-] the models' mu_dynamic, the Drake-hosted loop's default friction (effect.MU_SDF)
 
@@ -122,30 +122,6 @@ class LearnedRun:
     mjcf: str
 
 
-class WindForces:
-    """The wind effect's force on every free container at once (vectorised; the same law as
-    testbed/engines/mujoco/run.py's wind_force_W, per container: pressure 0.5 rho v^2 Cd on the
-    projected area, ramped over ramp_time), applied at C: rows of xfrc_applied [force, torque
-    about the COM] in W. sizes (k, 3) [m] full extents, com_B (k, 3) [m] C -> COM in C."""
-
-    def __init__(self, config, sizes: np.ndarray, com_B: np.ndarray):
-        import math
-
-        angle = math.radians(config.direction_deg)
-        self.direction = np.array([math.cos(angle), math.sin(angle), 0.0])
-        self.pressure = 0.5 * config.air_density * config.speed**2 * config.drag_coefficient  # [Pa]
-        self.ramp = config.ramp_time
-        self.faces = np.column_stack([sizes[:, 1] * sizes[:, 2], sizes[:, 0] * sizes[:, 2], sizes[:, 0] * sizes[:, 1]])
-        self.com_B = com_B
-
-    def wrenches(self, R: np.ndarray, t: float) -> np.ndarray:
-        """(k, 6) [N, N m] at time t [s] for the containers' rotations R_WC (k, 3, 3)."""
-        scale = 1.0 if self.ramp <= 0 else min(1.0, t / self.ramp)
-        area = np.einsum("ki,ki->k", self.faces, np.abs(np.einsum("kji,j->ki", R, self.direction)))  # [m^2]
-        f = (scale * self.pressure * area)[:, None] * self.direction
-        return np.hstack([f, np.cross(-np.einsum("kij,kj->ki", R, self.com_B), f)])
-
-
 class _LearnedCrane(CraneRopes):
     """The crane's ropes; its load counts as seated when the learned contact touches it too."""
 
@@ -158,16 +134,14 @@ class _LearnedCrane(CraneRopes):
 
 
 class LearnedContact:
-    """The learned contact of the containers of one MuJoCo model (see the module docstring).
+    """The learned contact of the containers of one MuJoCo model (see the module docstring):
+    the one contact step (step.ContactStep) on MuJoCo's arrays.
 
     Arrays over the scene's containers (m, scene order): body (m,) MuJoCo body ids, free (m,),
     half (m, 3) [m] half extents, mass (m,) [kg] (inf if fixed), I_Bo (m, 3, 3) [kg m^2]
     about the body origin C in the body frame."""
 
     def __init__(self, prepared: Prepared, model):
-        import testbed.effects.learned_dynamics.kernels as kernels  # numba: loaded when a scene runs
-
-        self.K, self.glue = kernels, glue
         s, effect = prepared.learned, prepared.effect
         specs = s.containers
         self.cfg, self.predictor = effect.config, effect.predictor
@@ -180,7 +154,6 @@ class LearnedContact:
                             dtype=np.int64)  # (m,) each free joint's first dof: v_WC (3), w_C (3)
         self.size = np.array([c.container_type().size for c in specs], dtype=float).reshape(-1, 3)
         self.half = 0.5 * self.size
-        self.radius = np.linalg.norm(self.half, axis=1)
         self.mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])
         self.I_Bo = np.tile(np.eye(3), (self.n, 1, 1))
         for i in self.free_idx:
@@ -192,68 +165,52 @@ class LearnedContact:
         friction = s.effects.friction
         self.mu = 0.0 if friction is None else float(
             self.cfg.mu if self.cfg.mu is not None else (friction.mu if friction.mu is not None else MU_SDF))
-        self.anchors = self.no_history()
-        self.last = None  # (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB) of the latest step's candidates
+        # the one contact step of both hosts; it keeps the held state between steps
+        self.step = ContactStep(self.size, self.free, self.mass, self.I_Bo, self.type_index, self.kappa_tt, self.cfg,
+                                self.mu, self.h, self.predictor, NEAR)
+        self.last = None  # the latest step's candidate pairs (step.StepPairs), None when there were none
         self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
 
-    def no_history(self) -> tuple:
-        """The held state before the first step: (keys (0,), rows (0, kernels.ROW), history
-        (m, kernels.BODY) NaN): no pair held, no body's last step (kernels.pair_wrenches)."""
-        return np.zeros(0, np.int64), np.zeros((0, self.K.ROW)), np.full((self.n, self.K.BODY), np.nan)
+    def reset(self) -> None:
+        """Forgets the held state (no pair held, no body's last step) and the latest pairs."""
+        self.step.forget()
+        self.last = None
 
     def state(self, data) -> tuple:
         """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
         W from MuJoCo's data after mj_step1 (xpos, xmat at the step's state; qvel: v_W, w_C)."""
-        return self.glue.body_state(data.xpos, data.xmat, data.qvel, self.body, self.dof, self.free)
+        return bodies_from_mujoco(data, self.body, self.dof, self.free)
 
     def touching(self, container: int) -> bool:
         """Whether container (scene index) was in learned contact at the latest step."""
         if self.last is None:
             return False
-        ia, ib, fn = self.last[:3]
-        return bool(np.any(((ia == container) | (ib == container)) & (fn > 0)))
+        last = self.last
+        return bool(np.any(((last.ia == container) | (last.ib == container)) & (last.fn > 0)))
 
     def apply(self, data) -> None:
         """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs."""
         t0 = time.perf_counter()
-        K, c = self.K, self.cfg
         p, R, w, v = self.state(data)
-        cand_a, cand_b = K.broad_phase(p, R, self.half, self.free, NEAR)
-        keep, p_AB, R_AB = K.near_pairs(p, R, cand_a, cand_b, self.half, self.radius, self.free, NEAR)
-        self.costs[3] += 1
-        if not len(keep):
-            data.xfrc_applied[:] = 0.0
-            self.anchors = (np.zeros(0, np.int64), np.zeros((0, K.ROW)), np.hstack([v, w, np.zeros((self.n, 6))]))
-            self.last = None
-            self.costs[0] += time.perf_counter() - t0
-            return
-        ia, ib = cand_a[keep], cand_b[keep]
-        keys, rows, history = self.anchors
-        kappa, held = K.gather_pairs(ia, ib, self.n, keys, rows, self.type_index, self.kappa_tt)
-        size_A, size_B = self.size[ia], self.size[ib]
         t1 = time.perf_counter()
-        point_A, normal_A = self.predictor.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
+        before = self.step.cost.copy()
+        wrench, pairs = self.step.step(p, R, w, v)
+        wrench_to_mujoco(data, wrench, self.body, self.free)
+        self.last = pairs if len(pairs) else None
         t2 = time.perf_counter()
-        out, fn, f_W, p_W, n_W, _, anchors_next, stuck_next, history_next = K.pair_wrenches(
-            p, R, w, v, self.mass, self.I_Bo, ia, ib, kappa, np.ascontiguousarray(point_A),
-            np.ascontiguousarray(normal_A), p_AB, R_AB, 0.5 * size_A, 0.5 * size_B, c.dissipation, self.mu,
-            c.slip_speed, c.stiction, self.h, c.torsional_friction, c.grid,
-            np.ascontiguousarray(held[:, :6]), np.ascontiguousarray(held[:, 6]), c.stick_hw, c.stick_damping,
-            np.ascontiguousarray(held[:, 7]), history, c.normal_sweeps)
-        self.anchors = (*K.pack_anchors(ia, ib, self.n, anchors_next, stuck_next, fn), history_next)
-        self.glue.write_wrenches(data.xfrc_applied, out, self.body, self.free, data.xpos, data.xipos)
-        self.last = (ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB)
-        t3 = time.perf_counter()
-        self.costs[:3] += (t1 - t0, t2 - t1, t3 - t2)
-        self.costs[4] += 1
-        self.costs[5] += len(keep)
+        spent = self.step.cost - before
+        # broad_s: the state and the candidates; predict_s: the predictor; law_s: the rest (law, records, xfrc)
+        self.costs[:3] += (t1 - t0 + spent[0], spent[1], t2 - t1 - spent[0] - spent[1])
+        self.costs[3] += 1
+        self.costs[4:] += spent[4:]
 
     def rows(self, step: int, t: float, offset: int) -> dict | None:
         """The contact rows of the latest step's touching container pairs (a, b = container
         index + offset: body_names indices), phi = minus the separating-axis depth [m]."""
         if self.last is None:
             return None
-        ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB = self.last
+        last = self.last
+        ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB = last.ia, last.ib, last.fn, last.p_W, last.n_W, last.f_W, last.p_AB, last.R_AB
         touch = np.flatnonzero(fn > 0)
         if not len(touch):
             return None
@@ -289,9 +246,9 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     qidx, vidx = qadr[:, None] + np.arange(7), vadr[:, None] + np.arange(6)
     law = LearnedContact(prepared, model)
     offset = 1 if s.ground else 0
-    wind = None if s.effects.wind is None else WindForces(
-        s.effects.wind, np.array([c.container_type().size for c in free_specs], dtype=float).reshape(-1, 3),
-        np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3))
+    wind = None if s.effects.wind is None else WindLaw(
+        s.effects.wind, np.array([c.container_type().size for c in free_specs], dtype=float).reshape(-1, 3))
+    com_B = np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3)
     crane = None
     if s.effects.crane is not None:
         j = tr.free_names.index(s.effects.crane.container)
@@ -300,11 +257,11 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
                               int(body_ids[j]), model.geom(tr.free_names[j]).id, int(qadr[j]), int(vadr[j]))
         j_crane = j
     reducer = _ContactReducer(model, tr.body_names)
-    # compile or load the numba kernels and warm the predictor outside the timed steps
+    # the predictor's first call (a Python model's imports, caches) outside the timed steps
     mj.mj_step1(model, data)
     law.apply(data)
     law.costs[:] = 0.0
-    law.anchors, law.last = law.no_history(), None
+    law.reset()
     if model.nkey:
         mj.mj_resetDataKeyframe(model, data, 0)
     else:
@@ -319,7 +276,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         law.apply(data)
         t2 = time.perf_counter()
         if wind is not None:
-            data.xfrc_applied[body_ids] += wind.wrenches(data.xmat[body_ids].reshape(-1, 3, 3), data.time)
+            data.xfrc_applied[body_ids] += wind.mujoco_rows(data.xmat[body_ids].reshape(-1, 3, 3), com_B, data.time)
         if crane is not None:
             crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
         t3 = time.perf_counter()
