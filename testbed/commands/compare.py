@@ -101,7 +101,7 @@ def run(args) -> int:
         params = args.params or "matched"
 
         def verdict(figures, directory, runs):
-            return {**judge(figures, directory), "three_way": three_way.rows(scenario, figures, runs, params)}
+            return {**judge(figures, directory), "three_way": three_way.rows(scenario, figures, runs, params, predictor)}
     try:
         figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
                                 replay=not args.no_replay, source=source, judge=verdict)

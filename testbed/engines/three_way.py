@@ -41,11 +41,14 @@ def check_three_way(scenario) -> None:
         e.check(ground)
 
 
-def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
+def rows(scenario, figures: dict, runs: dict, params: str = "matched", predictor: str | None = None) -> dict:
     """compare.json's `three_way`: {'reference', 'hydroelastic_modulus_Pa', 'wall_per_sim_s_truth',
     '<engine>_version', 'rows': [{'model', ROW_KEYS (simulated_s_learned as 'simulated_s'),
     'wall_per_sim_s', 'speedup_vs_truth'}]} for Drake point, the learned loop and every other
-    engine (`params` where it has that set) against runs['truth'].
+    engine (`params` where it has that set) against runs['truth']. An engine whose contact a
+    predictor decides (Engine.learned: MuJoCo + learned) runs `predictor`, the one the learned
+    loop's row runs (the spec compare was given), so that every learned row answers with the
+    user's model; None: the engine's own default.
     scenario: at the law's modulus (at_law_modulus); figures: the learned twin run's;
     runs: its trajectories ('truth', 'learned', 'point')."""
     h = scenario.plant.time_step
@@ -55,10 +58,14 @@ def rows(scenario, figures: dict, runs: dict, params: str = "matched") -> dict:
     candidates_ = [("Drake point", runs["point"], None), (f"learned ({figures['predictor']})", runs["learned"], None)]
     versions, ground = {}, engine_variant(scenario, "truth")  # = the twins' truth: the scene is at the law's modulus
     for e in alternatives():
-        chosen = params if params in e.param_sets else (e.param_sets[0] if e.param_sets else None)
+        if e.learned and predictor is not None:
+            chosen, shown = predictor, figures["predictor"]
+        else:
+            chosen = params if params in e.param_sets else (e.param_sets[0] if e.param_sets else None)
+            shown = chosen
         run = e.run(ground, duration=figures["duration_s"], record_every=every, params=chosen)
         versions[f"{e.name}_version"] = run.summary.get("version", "")
-        candidates_.append((f"{e.label} ({chosen})" if chosen else e.label, run.trajectory, run.summary["wall_per_sim_s"]))
+        candidates_.append((f"{e.label} ({shown})" if shown else e.label, run.trajectory, run.summary["wall_per_sim_s"]))
     out = []
     for name, traj, wall in candidates_:
         f = compare_figures(truth, traj, scenario.containers, SatDepth())
