@@ -28,6 +28,7 @@ from learned_contact.compiled.kernels import (
     features,
     mlp_spec,
     native_answer,
+    native_check,
     native_depth,
     native_depth_of,
     native_model,
@@ -49,5 +50,5 @@ def say_not_built() -> None:
 
 
 __all__ = ["ACTIVATION_CODES", "KIND_CODES", "NATIVE_AVAILABLE", "NOT_BUILT", "STATUS_NAMES", "box_depth", "constants", "features",
-           "mlp_spec", "native_answer", "native_depth", "native_depth_of", "native_model", "native_predict",
+           "mlp_spec", "native_answer", "native_check", "native_depth", "native_depth_of", "native_model", "native_predict",
            "say_not_built"]

@@ -82,6 +82,17 @@ def native_depth(model, p, R, sA, sB):
     return depth, status, row
 
 
+def native_check(supported, p, R, sA, sB) -> int:
+    """cc_predict's input checks (interface.check_numpy's, in its order: finite poses, proper
+    rotations, finite and supported sizes) on shape-checked arrays, in C: the status (0 ok;
+    module docstring). p (n, 3) [m], R (n, 3, 3), sA and sB (1, 3) or (n, 3) [m], supported
+    (k, 3) [m]. A model the testbed did not ship checks its inputs so in a few microseconds;
+    on a status other than 0 its caller runs check_numpy, which raises the reference's error."""
+    f = np.ascontiguousarray
+    return _native.check(f(supported, dtype=float), f(p, dtype=float), f(R, dtype=float), f(sA, dtype=float),
+                         f(sB, dtype=float))[0]
+
+
 def box_depth(p, R, sA, sB):
     """(n,) separating-axis penetration depth [m] of boxes of any size (no model, no size check:
     for a model the testbed did not ship, whose inputs learned_contact.interface has checked):

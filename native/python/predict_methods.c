@@ -372,6 +372,37 @@ static PyObject *py_box_depth(PyObject *module, PyObject *const *args, Py_ssize_
   Py_RETURN_NONE;
 }
 
+/* check(supported, p, R, size_A, size_B) -> (status, row): cc_predict's input checks
+ * (interface.check_numpy's, in its order) against supported (k, 3) full extents [m], for a
+ * model the testbed did not ship: a status other than 0 sends the caller to check_numpy,
+ * which raises the reference's error. */
+static PyObject *py_check(PyObject *module, PyObject *const *args, Py_ssize_t nargs) {
+  (void)module;
+  if (nargs != 5) {
+    PyErr_SetString(PyExc_TypeError, "check(supported, p, R, size_A, size_B) takes 5 arguments");
+    return NULL;
+  }
+  Py_buffer supported;
+  if (get_f64(args[0], &supported, 0, "supported") < 0) return NULL;
+  Py_ssize_t k = count_of(&supported) / 3;
+  if (k < 1 || count_of(&supported) != 3 * k) {
+    PyBuffer_Release(&supported);
+    PyErr_SetString(PyExc_ValueError, "supported must hold 3 k values (k >= 1)");
+    return NULL;
+  }
+  inputs in;
+  if (get_inputs(args + 1, &in) < 0) {
+    PyBuffer_Release(&supported);
+    return NULL;
+  }
+  size_t row = 0;
+  int status = cci_check_inputs(supported.buf, (int)k, in.n, in.p.buf, in.R.buf, in.sA.buf, in.rows_A, in.sB.buf,
+                                in.rows_B, &row);
+  release_inputs(&in);
+  PyBuffer_Release(&supported);
+  return status_tuple(status, row);
+}
+
 /* time_core(model, p, R, size_A, size_B, batch, repeats) -> float: the native core's own cost
  * [s per pair], timed in C with no Python between calls: cc_predict over the n poses in calls
  * of `batch` poses (1: one pair per call, as a simulator's per-contact call), the whole pass
@@ -760,6 +791,8 @@ PyMethodDef cc_py_predict_methods[] = {
      "(outputs preallocated; depth may be None)."},
     {"depth", (PyCFunction)(void (*)(void))py_depth, METH_FASTCALL,
      "depth(model, p, R, size_A, size_B, out) -> (status, row): cc_depth on float64 arrays."},
+    {"check", (PyCFunction)(void (*)(void))py_check, METH_FASTCALL,
+     "check(supported, p, R, size_A, size_B) -> (status, row): cc_predict's input checks, no model"},
     {"time_core", (PyCFunction)(void (*)(void))py_time_core, METH_FASTCALL,
      "time_core(model, p, R, size_A, size_B, batch, repeats) -> the core's own cost [s per pair], timed in C"},
     {"box_depth", (PyCFunction)(void (*)(void))py_box_depth, METH_FASTCALL,

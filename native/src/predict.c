@@ -8,6 +8,7 @@
  * there and in learned_contact.model (encodings, expert, quadrature). Frames and units: see
  * container_contact.h and cc_internal.h. */
 #include <math.h>
+#include <string.h>
 
 #include "cc_internal.h"
 
@@ -89,6 +90,15 @@ static int check_inputs(const cc_model *model, size_t n, const double *p, const 
   int status = check_sizes(sA, rows_A, model, CC_SIZE_A_UNSUPPORTED, CC_SIZE_A_NOT_FINITE, bad_row);
   if (status != CC_OK) return status;
   return check_sizes(sB, rows_B, model, CC_SIZE_B_UNSUPPORTED, CC_SIZE_B_NOT_FINITE, bad_row);
+}
+
+int cci_check_inputs(const double *supported, int n_sizes, size_t n, const double *p, const double *R,
+                     const double *sA, size_t rows_A, const double *sB, size_t rows_B, size_t *bad_row) {
+  cc_model sizes_only;
+  memset(&sizes_only, 0, sizeof sizes_only);
+  sizes_only.n_sizes = n_sizes;
+  sizes_only.supported_sizes = supported;
+  return check_inputs(&sizes_only, n, p, R, sA, rows_A, sB, rows_B, bad_row);
 }
 
 /* The model's own consistency (what cc_model_load guarantees for a file it read; a model

@@ -406,3 +406,41 @@ def test_box_depth_is_the_separating_axis_depth_of_any_boxes():
     assert np.ptp(np.sign(ref)) == 2  # both separated and overlapping poses
     np.testing.assert_allclose(box_depth(p, R, sA, sB), ref, rtol=0, atol=1e-12)
     np.testing.assert_allclose(box_depth(p, R, sA[:1], sB[:1]), sat_normal(p, R, 0.5 * sA[:1], 0.5 * sB[:1])[1], rtol=0, atol=1e-12)
+
+
+@needs_core
+def test_the_native_check_accepts_exactly_what_check_numpy_accepts():
+    """native_check (a user model's fast input checks) says 0 exactly where
+    interface.check_numpy raises nothing, on clean batches and on batches with one defect of
+    each kind the reference refuses (a NaN, a reflection, a skewed matrix, an unsupported or
+    non-finite size); each defect placed at a random row."""
+    from learned_contact.compiled import native_check
+    from learned_contact.errors import PredictorInputError
+    from learned_contact.interface import check_numpy
+    from testbed.geometry.rotations import random_rotations
+
+    rng = np.random.default_rng(3737)
+    supported = np.array([[6.058, 2.438, 2.591], [12.192, 2.438, 2.591]])
+    defects = [None, ("p", np.nan), ("R", "reflect"), ("R", "skew"), ("sA", 0.1), ("sB", np.inf), ("sA", 9e-4)]
+    for trial in range(70):
+        n = int(rng.integers(1, 6))
+        p, R = rng.normal(size=(n, 3)), random_rotations(rng, n)
+        sA, sB = supported[rng.integers(0, 2, n)].copy(), supported[rng.integers(0, 2, n)].copy()
+        kind = defects[trial % len(defects)]
+        row = int(rng.integers(0, n))
+        if kind is not None:
+            what, value = kind
+            if what == "p":
+                p[row, 1] = value
+            elif value == "reflect":
+                R[row, :, 2] *= -1.0
+            elif value == "skew":
+                R[row, 0, 1] += 1e-5
+            else:
+                (sA if what == "sA" else sB)[row, 0] += value  # 9e-4: within SIZE_TOLERANCE, accepted
+        try:
+            check_numpy(p, R, sA, sB, supported)
+            refused = False
+        except PredictorInputError:
+            refused = True
+        assert (native_check(supported, p, R, sA, sB) != 0) == refused, (trial, kind)
