@@ -47,7 +47,7 @@ import numpy as np
 from learned_contact.compiled import features as native_features
 from learned_contact.compiled.kernels import _native
 from learned_contact.data.labels import make_dataset, pair_scene, posed_query
-from learned_contact.evaluation.cost import first_call_s, one_blas_thread, per_pair_s
+from learned_contact.evaluation.cost import fastest_side_by_side, first_call_s, one_blas_thread, per_pair_s
 from learned_contact.predictors.poses import rotation_from_rpy
 from learned_contact.sources import SHIPPED_NAMES, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
@@ -137,10 +137,21 @@ def centred_stacks(n: int, seed: int = 5150):
     return p, R, s, s.copy()
 
 
+def _side_by_side(timed: dict) -> dict:
+    """{name: us per pair} of {name: (fn, pairs per call of fn)}, every fn called once per round in
+    turn over 5 rounds (learned_contact.evaluation.cost.fastest_side_by_side): a ratio of two of
+    them compares calls made within milliseconds of each other, so load that comes and goes on
+    a shared machine slows both sides alike instead of whichever was timed during it."""
+    names = list(timed)
+    ns = fastest_side_by_side([timed[k][0] for k in names], rounds=5)
+    return {k: t * 1e-3 / timed[k][1] for k, t in zip(names, ns)}
+
+
 def measure(args, numpy_paths: bool = True) -> dict:
     """{what: us per pair} (module docstring); numpy_paths=False leaves out the numpy
     reference paths and Drake's hydroelastic query, which no target names (the cost pins'
-    test times only what the targets need)."""
+    test times only what the targets need). Each target's two sides (a predictor's call and
+    Drake's query) are timed side by side (`_side_by_side`)."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
     p, R, sA, sB = _poses(args.n)
@@ -150,16 +161,32 @@ def measure(args, numpy_paths: bool = True) -> dict:
     pb, Rb, sAb, sBb = (np.ascontiguousarray(a[batch]) for a in (p, R, sA, sB))
     idx = rng.choice(n, size=min(args.single, n), replace=False)
     singles = [(p[i].copy(), R[i].copy(), sA[i].copy(), sB[i].copy()) for i in idx]
-    res = {}
+    code = {tuple(CONTAINER_TYPES[t].size): t for t in ("1CC", "1AA", "1AAA")}
+    scenes = {int(i): pair_scene(code[tuple(sA[i])], code[tuple(sB[i])]) for i in idx}
+    poly = HydroelasticContactRepresentation.kPolygon
+    i0 = int(idx[0])
+    q = posed_query(scenes[i0], R[i0], p[i0])
+    assert q.ComputePointPairPenetration() and q.ComputeContactSurfaces(poly)  # in contact
+    kernel_calls = 2000
+    res, timed = {}, {}
     for kind in SHIPPED_NAMES:
         for compiled in (True, False) if numpy_paths else (True,):
             pred = load_predictor(kind, compiled=compiled)
             label = f"{kind} {'compiled' if compiled else 'numpy'}"
             pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # warm up (caches, the first call's imports)
-            res[f"{label}, one pair per call"] = _per_pair(
-                lambda pred=pred: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles], 1, len(singles))
-            res[f"{label}, batched {args.batch}"] = _per_pair(
-                lambda pred=pred: pred.predict(pb, Rb, size_A=sAb, size_B=sBb), 3 if compiled else 1, len(pb))
+            one = lambda pred=pred: [pred.predict(a, b, size_A=c, size_B=d) for a, b, c, d in singles]  # noqa: E731
+            batched = lambda pred=pred: pred.predict(pb, Rb, size_A=sAb, size_B=sBb)  # noqa: E731
+            if compiled:  # a target's side: timed beside Drake's query below
+                timed[f"{label}, one pair per call"] = (one, len(singles))
+                timed[f"{label}, batched {args.batch}"] = (batched, len(pb))
+            else:
+                res[f"{label}, one pair per call"] = _per_pair(one, 1, len(singles))
+                res[f"{label}, batched {args.batch}"] = _per_pair(batched, 1, len(pb))
+    timed["drake point-pair, kernel (query only)"] = (lambda: [q.ComputePointPairPenetration() for _ in range(kernel_calls)],
+                                                      kernel_calls)
+    timed["drake point-pair, set pose + query"] = (
+        lambda: [posed_query(scenes[int(i)], R[i], p[i]).ComputePointPairPenetration() for i in idx], len(idx))
+    res.update(_side_by_side(timed))
     fast = load_predictor("improved")
     if fast.compiled:  # the native core is built
         native_features(pb, Rb, sAb, sBb)
@@ -169,7 +196,6 @@ def measure(args, numpy_paths: bool = True) -> dict:
         out = (np.empty((1, 3)), np.empty((1, 3)), np.empty(1))
         res["improved compiled, bare core call, one pair"] = _per_pair(
             lambda: [_native.predict(fast._native, a, b, c, d, *out) for a, b, c, d in packed], 1, len(packed))
-
         for kind in SHIPPED_NAMES:  # the core's own cost: cc_predict timed in C, no Python per call
             model = load_predictor(kind)._native
             res[f"{kind} core in C, one pair per call"] = _native.time_core(model, pb, Rb, sAb, sBb, 1, 5) * 1e6
@@ -185,39 +211,32 @@ def measure(args, numpy_paths: bool = True) -> dict:
         own = [onnx.own_call(a[None], b[None], c[None], d[None]) for a, b, c, d in singles[:100]]
         with onnx.own_round(5 * len(own) + 5):
             res["ONNX export, session.run alone, one pair per call"] = _per_pair(lambda: [f() for f in own], 1, len(own))
-
-    code = {tuple(CONTAINER_TYPES[t].size): t for t in ("1CC", "1AA", "1AAA")}
-    scenes = [pair_scene(code[tuple(a)], code[tuple(b)]) for a, b in zip(sA, sB)]
-    poly = HydroelasticContactRepresentation.kPolygon
-    i0 = int(idx[0])
-    q = posed_query(scenes[i0], R[i0], p[i0])
-    assert q.ComputePointPairPenetration() and q.ComputeContactSurfaces(poly)  # in contact
-    res["drake point-pair, kernel (query only)"] = _per_pair(q.ComputePointPairPenetration, 2000, 1)
-    res["drake point-pair, set pose + query"] = _per_pair(
-        lambda: [posed_query(scenes[i], R[i], p[i]).ComputePointPairPenetration() for i in idx], 1, len(idx))
     if numpy_paths:
         res["drake hydroelastic, set pose + query"] = _per_pair(
-            lambda: [posed_query(scenes[i], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
+            lambda: [posed_query(scenes[int(i)], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
     # centred stacks (issue 30: the quadrature answers them alone, no network runs)
     cp, cR, csA, csB = centred_stacks(args.batch)
     fast.predict(cp, cR, size_A=csA, size_B=csB)
-    res[f"centred stacks: improved compiled, batched {args.batch}"] = _per_pair(
-        lambda: fast.predict(cp, cR, size_A=csA, size_B=csB), 3, len(cp))
     c_singles = [(cp[i:i + 1].copy(), cR[i:i + 1].copy(), csA[i:i + 1].copy(), csB[i:i + 1].copy())
                  for i in range(min(args.single, len(cp)))]
-    res["centred stacks: improved compiled, one pair per call"] = _per_pair(
-        lambda: [fast.predict(a, b, size_A=c, size_B=d) for a, b, c, d in c_singles], 1, len(c_singles))
-    if fast.compiled:
-        res["centred stacks: improved core in C, one pair per call"] = _native.time_core(fast._native, cp, cR, csA, csB, 1, 5) * 1e6
-        res[f"centred stacks: improved core in C, batched {args.batch}"] = _native.time_core(
-            fast._native, cp, cR, csA, csB, args.batch, 5) * 1e6
     c_scenes = [pair_scene(code[tuple(a)], code[tuple(b)]) for a, b in zip(csA[:len(c_singles)], csB[:len(c_singles)])]
-    q = posed_query(c_scenes[0], cR[0], cp[0])
-    assert q.ComputePointPairPenetration()  # in contact
-    res["centred stacks: drake point-pair, kernel (query only)"] = _per_pair(q.ComputePointPairPenetration, 2000, 1)
-    res["centred stacks: drake point-pair, set pose + query"] = _per_pair(
-        lambda: [posed_query(c_scenes[i], cR[i], cp[i]).ComputePointPairPenetration() for i in range(len(c_scenes))],
-        1, len(c_scenes))
+    cq = posed_query(c_scenes[0], cR[0], cp[0])
+    assert cq.ComputePointPairPenetration()  # in contact
+    centred = {
+        f"centred stacks: improved compiled, batched {args.batch}": (lambda: fast.predict(cp, cR, size_A=csA, size_B=csB), len(cp)),
+        "centred stacks: improved compiled, one pair per call": (
+            lambda: [fast.predict(a, b, size_A=c, size_B=d) for a, b, c, d in c_singles], len(c_singles)),
+        "centred stacks: drake point-pair, kernel (query only)": (
+            lambda: [cq.ComputePointPairPenetration() for _ in range(kernel_calls)], kernel_calls),
+        "centred stacks: drake point-pair, set pose + query": (
+            lambda: [posed_query(c_scenes[i], cR[i], cp[i]).ComputePointPairPenetration() for i in range(len(c_scenes))],
+            len(c_scenes)),
+    }
+    if fast.compiled:  # the core's own cost, one pass of time_core per round (its fn returns its own clock)
+        for label, per_call in (("one pair per call", 1), (f"batched {args.batch}", args.batch)):
+            centred[f"centred stacks: improved core in C, {label}"] = (
+                lambda per_call=per_call: _native.time_core(fast._native, cp, cR, csA, csB, per_call, 1), len(cp))
+    res.update(_side_by_side(centred))
     return res
 
 
