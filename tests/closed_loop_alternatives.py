@@ -1,4 +1,4 @@
-"""Simple alternatives to the shipped predictor, for the closed-loop gates' test (issue 23).
+"""Simple alternatives to the shipped predictor, for the closed-loop gates' test.
 
 Each is a `module:attribute` predictor (this module is importable as
 `closed_loop_alternatives` when tests/ is on sys.path): a factory with no arguments whose

@@ -1,4 +1,4 @@
-"""Hostile input files (issue 19): each is made in a directory and returned as a path.
+"""Hostile input files: each is made in a directory and returned as a path.
 
 Every class must give one line naming the file and the problem, exit status 2, in under 2 s and
 under 1 GiB, with nothing written. Used by tests/foundation/test_hostile_files.py and by hand:

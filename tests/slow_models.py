@@ -1,4 +1,4 @@
-"""Python models whose time goes where the model bounds must tell apart (issue 37), for
+"""Python models whose time goes where the model bounds must tell apart, for
 tests/learned/test_limits_watchdog.py: the testbed's own work inside a model's load or call
 (never counted against its bound) against the model's own slowness (always counted).
 

@@ -201,7 +201,7 @@ def make_dataset(distribution: str, n: int, seed: int, *, types=("1CC", "1AA", "
     Dataset of those with a contact surface. ranges: sampling.sample's max_depth /
     max_tilt_deg (default: the training ranges)."""
     # the installed Drake's version too: labels are Drake's numerics (1.51.1 and 1.58.0 gave
-    # bitwise-equal labels on 3000 poses, issue 21, but one cache serves both interpreters)
+    # bitwise-equal labels on 3000 poses, but one cache serves both interpreters)
     key = cache.key("labels", distribution, n, seed, tuple(types), LABEL_VERSION, drake_version(), *sorted(ranges.items()))
     rows = cache.load(key) if use_cache else None
     props = sample(distribution, n, seed, types, **ranges)

@@ -20,10 +20,10 @@ verdict: met, NOT met, or, for a target pinned as a known limit (KNOWN_COST_LIMI
 figure when pinned and a band around it), "known limit" inside the band and "worse than
 pinned" / "better than pinned" outside it (tests/learned/test_cost_targets.py holds the
 same verdicts on every test run):
-  single pair (compiled) / Drake point-pair with the pose set per call   <= 0.5 (issue 30; 1 before)
+  single pair (compiled) / Drake point-pair with the pose set per call   <= 0.5 (was 1)
   batched improved (compiled) / Drake point-pair kernel                  <= 0.25
   batched paper (compiled) / Drake point-pair kernel                     <= 0.05
-  centred stacks: batched improved, the core timed in C / Drake kernel   <= 0.5 (issue 37)
+  centred stacks: batched improved, the core timed in C / Drake kernel   <= 0.5
 and the native core's own cost per pair, cc_predict timed in C with no Python between calls
 (CORE_TARGETS_US: <= 1 us one pair per call on centred stacks, <= 2 us on the mix; printed
 with their verdicts, not tested: they are absolute times). `--onnx FILE` adds an exported
@@ -53,18 +53,18 @@ from learned_contact.sources import SHIPPED_NAMES, load_predictor
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.boxes import sat_normal
 
-TARGETS = {  # ratio name -> upper bound (issue 10; the centred stacks' and the 0.5: issue 30)
+TARGETS = {  # ratio name -> upper bound
     "single improved compiled / drake point-pair set+query": 0.5,
     "centred stacks: single improved compiled / drake point-pair set+query": 0.5,
     "centred stacks: batched improved compiled / drake point-pair kernel": 0.25,
     "single paper compiled / drake point-pair set+query": 1.0,
     "batched improved compiled / drake point-pair kernel": 0.25,
     "batched paper compiled / drake point-pair kernel": 0.05,
-    # issue 37: the native core's own cost, timed in C (no Python between calls)
+    # the native core's own cost, timed in C (no Python between calls)
     "centred stacks: batched improved core in C / drake point-pair kernel": 0.5,
 }
 # The native core's own cost per pair [us], timed in C (learned_contact._native.time_core): targets
-# stated in microseconds (issue 37), so printed with their verdicts by the script but never asserted
+# stated in microseconds, so printed with their verdicts by the script but never asserted
 # by a test (tests assert no absolute times; a shared machine's load moves them).
 CORE_TARGETS_US = {
     "centred stacks: improved core in C, one pair per call": 1.0,
@@ -75,7 +75,7 @@ CORE_TARGETS_US = {
 # drop the pin where the target is met). The bands are a factor of 2 each way of the figure
 # measured on the development machine (2 shared cores; the same code measured within +-30 %
 # over runs there, more with other jobs beside it, and a CI machine's CPU may favour the core
-# or Drake's C++ differently). Re-pinned for the native core (issue 37: C instead of numba)
+# or Drake's C++ differently). Re-pinned for the native core (C instead of numba)
 # from four runs with drake 1.51.1 (Python 3.11) on a busy machine: batched improved
 # 2.5-4.7, centred stacks batched 0.89-1.49, paper batched 0.35-0.51. The one-pair-per-call
 # targets are met since (mix 0.24-0.41, centred stacks 0.18-0.29; with numba 0.60-0.66 and
@@ -97,7 +97,7 @@ KNOWN_COST_LIMITS: dict[str, tuple[float, tuple[float, float], str]] = {
         "whole point-pair query; the target allows 0.65 us")),
     "batched paper compiled / drake point-pair kernel": (0.43, (0.215, 0.86), (
         "the paper's 6-20-18-4 network costs ~0.5 us per pair in the native core (38 tanh, three "
-        "libm angle functions, the separating-axis depth); the target (issue 10) allows 0.06 us")),
+        "libm angle functions, the separating-axis depth); the target allows 0.06 us")),
 }
 
 
@@ -214,7 +214,7 @@ def measure(args, numpy_paths: bool = True) -> dict:
     if numpy_paths:
         res["drake hydroelastic, set pose + query"] = _per_pair(
             lambda: [posed_query(scenes[int(i)], R[i], p[i]).ComputeContactSurfaces(poly) for i in idx[:100]], 1, len(idx[:100]))
-    # centred stacks (issue 30: the quadrature answers them alone, no network runs)
+    # centred stacks (the quadrature answers them alone, no network runs)
     cp, cR, csA, csB = centred_stacks(args.batch)
     fast.predict(cp, cR, size_A=csA, size_B=csB)
     c_singles = [(cp[i:i + 1].copy(), cR[i:i + 1].copy(), csA[i:i + 1].copy(), csB[i:i + 1].copy())

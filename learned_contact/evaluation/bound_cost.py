@@ -1,4 +1,4 @@
-"""What the per-call bound on a user's model adds to each call (issue 37), measured side by side.
+"""What the per-call bound on a user's model adds to each call, measured side by side.
 
     python -m learned_contact.evaluation.bound_cost [--calls 3000]
 

@@ -2,7 +2,7 @@
 
 The main network is trained on depths uniform in 0-3 cm; where stacks rest at the 1e9 Pa
 modulus (overlaps of micrometres, tilts of hundredths of a degree) it moves the point
-centimetres from Drake's answer (issue 20). The resting expert is a network of the same
+centimetres from Drake's answer. The resting expert is a network of the same
 shape and features, trained only on that regime (sampling's "resting", "resting_wide" and
 "resting_level" distributions) with its own input standardisation, so that micrometre depths are no
 longer lost in features scaled for centimetres. A gate hands it the poses of its domain:
@@ -21,7 +21,7 @@ gets the same g):
 Two layouts of the bounds (`expert/domain` in the weights file; the layout is told by its
 length):
 
-- DOMAIN_FIELDS (11 values, format_version 3, issue 30): the offsets are fractions of the
+- DOMAIN_FIELDS (11 values, format_version 3): the offsets are fractions of the
   edge of support, u_i = |p_c,i| / e_i with e_i = max(h_A,i, h_B,i) (half extents [m]):
   whichever box lies on the other, its centre of mass leaves the other's face where
   |p_i| reaches the lower box's half extent, so beyond max(h_A,i, h_B,i) neither can rest
@@ -29,7 +29,7 @@ length):
   for x (A's length: overhangs, a 20 ft box at the end of a 40 ft one at u_x = 0.5, a
   40 ft box across two 20 ft ones at u_x = 0.5) and y, so opening the gate along the
   length no longer opens it across. A box beside A (side contact) has u_i >= 1.5.
-- DOMAIN_FIELDS_V2 (9 values, format_version 2, issue 20): one offset bound [m] for both
+- DOMAIN_FIELDS_V2 (9 values, format_version 2): one offset bound [m] for both
   |p_c,x| and |p_c,y|; files of it load and answer as before.
 
 The inner bounds hold the training distributions' core (g = 1 there), the outer bounds
@@ -39,8 +39,8 @@ Elsewhere (g = 0) the answer is the main network's, bit for bit; each network is
 evaluated only where its weight is not 0. A crane landing, a deep stack or a box beside
 A never reach the expert.
 
-Where the geometric prior is exact the correction vanishes by construction, everywhere
-(issue 30), not only inside the gate. Where B's face is parallel to A's (a level face on
+Where the geometric prior is exact the correction vanishes by construction, everywhere,
+not only inside the gate. Where B's face is parallel to A's (a level face on
 a face, any yaw, any offset, any pair of faces) the overlap is a slab of one depth, and
 the prior's depth-weighted patch centroid is Drake's centre of pressure (measured: under
 0.01 mm); a network, however trained, answers it to about a millimetre or worse (the main
@@ -53,7 +53,7 @@ the faces that meet: slab_axes), and every correction is scaled by s = smoothste
 so at r = 0 the answer is the prior's exactly (every octant frame, every path), and from
 r_slab on it is the networks' as before. The hand-over is C1 in r; r is continuous in the
 pose except where the prior's reference face changes (the prior itself switches there).
-Before issue 30 the scale applied inside the gate only (c = 1 - g (1 - s)): the two agree
+Before format_version 3 the scale applied inside the gate only (c = 1 - g (1 - s)): the two agree
 where g = 1 and wherever r >= r_slab; only poses with r < r_slab outside the gate or in its
 ramps are answered differently (closer to the prior).
 
@@ -68,7 +68,7 @@ import numpy as np
 # format_version 3: offsets per axis as fractions of the edge of support (module docstring)
 DOMAIN_FIELDS = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
                  "support_x_in", "support_x_out", "support_y_in", "support_y_out", "r_slab")
-# format_version 2 (issue 20): one offset bound [m] for both |p_c,x| and |p_c,y|
+# format_version 2: one offset bound [m] for both |p_c,x| and |p_c,y|
 DOMAIN_FIELDS_V2 = ("depth_in [m]", "depth_out [m]", "sin_tilt_in", "sin_tilt_out", "sin_yaw_in", "sin_yaw_out",
                     "offset_in [m]", "offset_out [m]", "r_slab")
 LAYOUTS = {2: DOMAIN_FIELDS_V2, 3: DOMAIN_FIELDS}  # format_version -> the fields of its expert/domain

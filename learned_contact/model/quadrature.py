@@ -42,7 +42,7 @@ from learned_contact.model.clipping import clip_halfspace
 # The fan: a face's four triangles join its centre to consecutive corners, corners in
 # the order (+u +v), (-u +v), (-u -v), (+u -v) of the face's two in-plane axes.
 _FAN = np.array([[1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0], [1.0, -1.0]])
-# Where the face-on-face answer holds (measured against Drake on held-out poses, issue 30;
+# Where the face-on-face answer holds (measured against Drake on held-out poses;
 # learned_contact/README.md; set against the one-point rule, kept for the exact integral):
 # its point to the exact centre of pressure within 1.0, 1.8 and 1.2 mm p95 over tilts of
 # 5-20, 20-30 and 30-40 deg (tests/learned/test_quadrature.py, 200 held-out stacks), its normal

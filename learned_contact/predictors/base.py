@@ -34,7 +34,7 @@ FORMAT_VERSION = 1
 # version 2: an improved predictor's file that carries a resting expert (expert/...); a
 # reader of version 1 would ignore those arrays and answer without the expert
 EXPERT_FORMAT_VERSION = 2
-# version 3 (issue 30): the expert's gate bounds its offsets per axis as fractions of the edge of
+# version 3: the expert's gate bounds its offsets per axis as fractions of the edge of
 # support (learned_contact.model.expert.DOMAIN_FIELDS, 11 values; version 2: DOMAIN_FIELDS_V2, 9);
 # a reader of version 2 would read them as metres
 SUPPORT_FORMAT_VERSION = 3

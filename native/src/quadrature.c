@@ -9,7 +9,7 @@
  * in A: the two in-plane axes of A's face and the height along its outward normal, so that
  * A's face is |u| <= hA[uA], |v| <= hA[vA] at height hA[a].
  *
- * The work follows the form the former numba kernel had (issue 30): the sides of both faces' fan
+ * The work follows the form the former numba kernel had: the sides of both faces' fan
  * triangles and the edge clips computed once per pose; a polygon pair skipped where its
  * area is zero by construction; a clip that keeps every vertex copies none; the weighted
  * means summed as they come. The arithmetic follows the numpy reference wherever a result

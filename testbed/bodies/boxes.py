@@ -1,4 +1,4 @@
-"""Generic rigid boxes and flat grounds in a scene (issue 12): their typed specs and checks.
+"""Generic rigid boxes and flat grounds in a scene: their typed specs and checks.
 
 A scene's container list may hold `type: box` entries with a `box:` block, and the scene may
 replace the quay slab by `ground_surface:` (a slab or a half-space at a given height):

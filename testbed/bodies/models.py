@@ -77,7 +77,7 @@ def container_sdf(
     return ET.tostring(root, encoding="unicode")
 
 
-# --- generic boxes and grounds (issue 12): SDF text written here, same proximity tags as sdf/ ---
+# --- generic boxes and grounds: SDF text written here, same proximity tags as sdf/ ---
 
 # Proximity values of a generic box or ground when the scene gives none: the containers'
 # (sdf/README.md says why each value).

@@ -1,4 +1,4 @@
-"""The rule the per-pose gates follow, applied to the closed loop (issue 23): on the scenes where
+"""The rule the per-pose gates follow, applied to the closed loop: on the scenes where
 the contact point or normal decides the outcome, every simple alternative fails the closed-loop
 gates, and the shipped improved predictor and Drake hydroelastic's own static answer (centre of
 pressure and normal at the pose, the training labels' definition) pass them.

@@ -1,4 +1,4 @@
-"""Issue 23's scenes, where the contact point or normal decides the outcome, against their
+"""The scenes where the contact point or normal decides the outcome, against their
 closed forms in Drake (hydroelastic and point contact) before any learned model drives them;
 and the closed-loop outcome gate on fabricated records.
 

@@ -1,4 +1,4 @@
-"""The learned loop at yard scale (issue 29, deliverable 2): the stability check loads a pair
+"""The learned loop at yard scale: the stability check loads a pair
 with what its upper box carries (its column), and candidate pairs come from a broad phase.
 
 The truly unstable stack: the normal force is linearly implicit since the heavy-on-empty landing

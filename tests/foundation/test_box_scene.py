@@ -1,4 +1,4 @@
-"""Generic boxes and flat grounds in a scene (issue 12, section 1).
+"""Generic boxes and flat grounds in a scene.
 
 Tolerances (and why):
 - 1% on the time-averaged contact force against the weight: at rest the contact force

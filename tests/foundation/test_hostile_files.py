@@ -1,4 +1,4 @@
-"""Hostile files (issue 19): alias bombs, deep flow nesting, devices, FIFOs, directories,
+"""Hostile files: alias bombs, deep flow nesting, devices, FIFOs, directories,
 duplicate keys and oversized files, given to every reader the testbed has (scenes, --set
 values, calibration parameter files and toss data, --resume records). Each gives one line
 naming the file and what was expected, exit 2 (TestbedError), nothing written, in under 2 s

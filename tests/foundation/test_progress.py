@@ -1,4 +1,4 @@
-"""Progress output off a terminal (issue 19, section 4): a redirected stderr gets whole lines,
+"""Progress output off a terminal: a redirected stderr gets whole lines,
 at most one per OFF_TTY_INTERVAL_S of wall time (plus the first), never carriage returns."""
 
 import io

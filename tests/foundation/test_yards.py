@@ -1,4 +1,4 @@
-"""Yard blocks (issue 29, deliverable 1): a `yards:` field expands into plain containers.
+"""Yard blocks: a `yards:` field expands into plain containers.
 
 Positions are checked to 1e-9 m (the expansion rounds to 1 nm); the layout is exact
 arithmetic on ISO 668 sizes: centre pitch = size + gap, tier pitch = height.

@@ -1,4 +1,4 @@
-"""Exact where the geometry is exact (issue 30): where two faces meet the improved predictor
+"""Exact where the geometry is exact: where two faces meet the improved predictor
 answers with the exact integral of Drake's face-on-face pressure (learned_contact.model.quadrature): on a level
 face on a face (the overlap a slab of one depth) that is the centre of the overlap region with
 A's face normal, moved by micrometres by the edge slivers Drake's mesh adds; on all three paths
@@ -106,7 +106,7 @@ def test_level_face_on_face_is_answered_by_the_quadrature_at_any_yaw_offset_and_
 
 
 def test_on_level_resting_poses_every_path_is_within_0_01_mm_of_drake(paths, tmp_path_factory):
-    """Issue 30's target: on exactly level poses of the wider resting set (yaw within 6 deg,
+    """The target: on exactly level poses of the wider resting set (yaw within 6 deg,
     offsets within 3 m along A's length and 0.6 m across, 20 ft on 40 ft and 40 ft on 20 ft
     included; sampling seed 3003, not used in training), labelled by Drake, the point error
     is <= 0.01 mm at the median and the p95 on numpy, compiled and ONNX (measured on seeds

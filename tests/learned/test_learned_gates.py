@@ -103,7 +103,7 @@ def test_paper_baseline_trains_to_stated_mae(data):
 
 
 def test_the_wider_resting_sets_hold_overhangs_and_their_exactly_level_poses(data):
-    """"resting_wider" (issue 30) reaches B's centre metres along A's x and yaws beyond the resting
+    """"resting_wider" reaches B's centre metres along A's x and yaws beyond the resting
     expert's 2-3 deg; "resting_wider_level" is exactly its level poses (about half)."""
     wider, level = data["resting_wider"], data["resting_wider_level"]
     assert np.abs(wider.p_AB[:, 0]).max() > 2.5 and np.degrees(np.abs(np.arcsin(wider.R_AB[:, 1, 0]))).max() > 5.0

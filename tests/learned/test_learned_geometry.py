@@ -62,7 +62,7 @@ def test_sampling_is_seeded_and_within_ranges():
 
 
 def test_resting_sampling_covers_its_ranges_and_keeps_the_others_stream():
-    """Issue 20's resting distribution: log-uniform overlap 5 um-0.5 mm, roll/pitch within
+    """The resting distribution: log-uniform overlap 5 um-0.5 mm, roll/pitch within
     0.05 deg, yaw within 2 deg, offsets up to 0.4 m, every ordered type pair."""
     from testbed.geometry.rotations import rpy_from_rotation
 

@@ -63,7 +63,7 @@ def test_train_seed_0_reproduces_the_shipped_weights(tmp_path):
         assert metrics["improved"]["external/stacking"]["point_m"][key] == pytest.approx(
             METRICS["improved"]["external/stacking"]["point_m"][key], rel=1e-4)
     # the expert shapes the learned pipeline beneath the quadrature (which answers every resting pose
-    # since issue 30): its own answer on the external resting set, against the shipped expert's
+    # since format_version 3): its own answer on the external resting set, against the shipped expert's
     from learned_contact.evaluation.metrics import point_normal_errors
     from testbed.geometry.boxes import sat_normal
 

@@ -34,7 +34,7 @@ def test_train_default_is_reproducible_from_seed(tmp_path, monkeypatch):
 
 @pytest.mark.slow
 def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, monkeypatch):
-    """TrainConfig.n_resting (issue 20's candidate, RESTING_RECIPE) labels that many
+    """TrainConfig.n_resting (RESTING_RECIPE) labels that many
     "resting" poses and trains on them: the run records them and its weights differ from
     the same run without them (same seed, same other data)."""
     import dataclasses
@@ -54,7 +54,7 @@ def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, mo
 
 @pytest.mark.slow
 def test_refit_expert_keeps_the_main_network_and_takes_the_support_gate(tmp_path, monkeypatch):
-    """training.refit_expert (issue 30): a new expert on the wider resting sets beside the shipped
+    """training.refit_expert: a new expert on the wider resting sets beside the shipped
     main network, unchanged bit for bit; with gate="support" its bounds are support_domain() and
     it saves as format_version 3."""
     from learned_contact.training.train import refit_expert, support_domain

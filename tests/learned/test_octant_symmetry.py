@@ -113,7 +113,7 @@ def test_the_unblended_network_does_jump():
 
 
 def _plain(pred, p, R, sA, sB):
-    """The octant-frame pipeline without the blend (the predictor before issue 20)."""
+    """The octant-frame pipeline without the blend (the predictor before the resting expert)."""
     S, p_c, R_c = canonicalise(p, R)
     x, pe, ne = features(p_c, R_c, 0.5 * sA, 0.5 * sB)
     y = pred.mlp(x)

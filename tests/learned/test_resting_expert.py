@@ -1,4 +1,4 @@
-"""The resting expert (learned_contact.model.expert, issue 20): its gate opens on every resting
+"""The resting expert (learned_contact.model.expert): its gate opens on every resting
 pose, shuts beyond the margin it was trained on, hands over continuously, and changes
 nothing where it is shut; the file format carries it or refuses it clearly."""
 
@@ -105,7 +105,7 @@ def test_the_gate_holds_its_bounds_on_each_quantity(quantity, inside, outside):
 
 def test_where_the_gate_is_shut_the_answer_is_the_main_networks_bit_for_bit(shipped):
     """The expert must not leak into other regimes: on stacking, general and outside
-    probe poses and on an overhang (B's centre 3.1 m off A's, issue 23's scenes) every
+    probe poses and on an overhang (B's centre 3.1 m off A's, the overhang scenes) every
     pose with g = 0 is answered exactly as by the same predictor without an expert."""
     plain = dataclasses.replace(shipped, expert=None, expert_domain=None)
     poses = [probe_poses(1500, 41, "stacking"), probe_poses(1500, 42, "general"),
@@ -123,7 +123,7 @@ def test_where_the_gate_is_shut_the_answer_is_the_main_networks_bit_for_bit(ship
 def _learned(pred, p, R, *, size_A, size_B):
     """The learned pipeline's answer (ContactPredictor._learned, numpy): what the expert
     and the slab scale shape. The predictor answers with the face-on-face quadrature where
-    two faces meet (issue 30), which covers every pose the expert's gate opens on, so these
+    two faces meet, which covers every pose the expert's gate opens on, so these
     tests look at the pipeline beneath it (it answers beyond the quadrature's tilt bands)."""
     pred = pred.with_compiled(False)
     size_A = np.broadcast_to(size_A, p.shape)
@@ -233,7 +233,7 @@ def test_near_level_stacks_are_answered_at_nanometres():
     form answers them all) is within 1 um at the median (measured 0.3 nm) and no worse than the
     geometric prior (0.8 um; exact only where the tilt across the patch is a fraction of the
     overlap), on the whole set and on its most level third (slab ratio < R_SLAB, 142 poses;
-    0.15 nm against 0.17 um). Issue 20's "2 mm, where the prior is 7.7 mm" measured Drake's
+    0.15 nm against 0.17 um). The earlier "2 mm, where the prior is 7.7 mm" measured Drake's
     one-point rule, which lies 7.7 mm (median) from the exact answer on these poses."""
     from learned_contact.data.labels import make_dataset
     from learned_contact.evaluation.gates import GeometricPrior
@@ -252,7 +252,7 @@ def test_near_level_stacks_are_answered_at_nanometres():
 
 
 # ---------------------------------------------------------------------------------------------
-# The per-axis gate on the edge of support (issue 30, format_version 3: expert.DOMAIN_FIELDS)
+# The per-axis gate on the edge of support (format_version 3: expert.DOMAIN_FIELDS)
 
 SIZE_40FT = np.array([12.192, 2.438, 2.591])
 

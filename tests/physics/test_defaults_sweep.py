@@ -149,7 +149,7 @@ def test_shipped_models_carry_the_chosen_modulus():
 
 @pytest.mark.slow
 def test_shipped_setting_passes_the_toss_criterion_on_the_shipped_tosses():
-    """The toss criterion on the data shipped in the package (issue 19: no skip when a folder
+    """The toss criterion on the data shipped in the package (no skip when a folder
     beside the checkout is missing): the shipped setting's held-out error is below
     TOSS_ERROR_BOUND (13.5%, the published Drake figure); measured 12.97% (calibration README)."""
     from testbed.calibration.data import SHIPPED_TOSSES

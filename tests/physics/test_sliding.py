@@ -1,7 +1,7 @@
 """Containers that slide, tip and fall: closed-form checks on the quay scenes.
 
 Every scene declares `contact_log` (the per-step signed-distance query used to hang or
-raise as soon as a container slid, issue 11) and runs under hydroelastic and point
+raise as soon as a container slid) and runs under hydroelastic and point
 contact (SAP). Closed forms use the scene's own numbers: the wind load
 q A = 0.5 rho v^2 Cd A (testbed/effects/wind.py) on the broadside area L x H, the
 container's mass, and the friction coefficients of the SDF models combined as Drake
@@ -9,7 +9,7 @@ does, mu = 2 mu_1 mu_2 / (mu_1 + mu_2).
 
 Drake's discrete solvers (SAP here) use mu_dynamic only; mu_static plays no part. So
 the sliding threshold of the empty 20 ft container is mu_d m g = 0.4 x 2200 x g = 8.63 kN,
-a 27.35 m/s broadside wind, not the 30.6 m/s that mu_static = 0.5 gives (issue 11's
+a 27.35 m/s broadside wind, not the 30.6 m/s that mu_static = 0.5 gives (the original run's
 figure): a 29 m/s wind slides it at 0.486 m/s^2 in hydroelastic contact, as mu_d predicts
 (0.486), where mu_static would hold it (`test_the_sliding_threshold_is_set_by_mu_dynamic`).
 """
@@ -83,13 +83,13 @@ def _finished(result):
     assert len(phi) and np.all(np.isfinite(phi))
 
 
-# --------------------------------------------------------------------------- issue 11's run
+# --------------------------------------------------------------------------- the original run
 ISSUE_11 = ("effects.contact.hydroelastic_margin=null", "effects.wind.ramp_time=0.5")
 
 
 @pytest.mark.parametrize("model", MODELS)
 def test_the_run_that_hung_now_finishes(model):
-    """Issue 11's scene exactly (no margin, 0.5 s ramp): with Drake's generic distance
+    """The original scene exactly (no margin, 0.5 s ramp): with Drake's generic distance
     query the logger hung at t = 0.391 s (hydroelastic) or raised at 0.349 s (point).
     Run under the watchdog, so a regression fails here instead of hanging the suite."""
     from testbed import load_scenario, run_scenario

@@ -30,7 +30,7 @@ POINT_MASS_RATIO = ("point contact, 1000:1: the 32.5 kg box between a 32.5 t box
 # figure inside PIN_BAND of the pinned one: worse, a crash or another criterion fails the
 # suite; much better means the table is stale and fails too (update it). Marginal entries
 # (figure within 20% of its bound) may also pass: a different CPU may land them on either
-# side of the bound. Measured on pydrake 1.51.1, x86_64 (re-measured at E = 1e9 Pa, issue 12).
+# side of the bound. Measured on pydrake 1.51.1, x86_64 (re-measured at E = 1e9 Pa, after the calibration).
 KNOWN_FAILURES = {
     ('near_parallel', (('tilt', 0.01),), 'point', 'auto', 0.001): (POINT_HOPS, 'drift', 284.93, False),
     ('near_parallel', (('tilt', 0.1),), 'hydroelastic', 'auto', 0.001): (HYDRO_EDGE, 'penetration', 5.04, True),

@@ -1,4 +1,4 @@
-"""The repository stands on its own (issue 19, section 2): no file refers to a folder beside the
+"""The repository stands on its own: no file refers to a folder beside the
 checkout, the design record and the toss data are inside it, and every command that reads
 tosses defaults to the shipped copy."""
 

@@ -1,5 +1,5 @@
 """The shipped cube-toss parameter files (testbed/calibration/cube_toss_<model>.yaml): they
-evaluate to the README's figures, stay inside a pinned band, are judged against issue 12's
+evaluate to the README's figures, stay inside a pinned band, are judged against the calibration's
 11% target, and work as scenes. The slow tests share one evaluation per file.
 
 Tolerances (and why) are stated at each assertion.
@@ -32,7 +32,7 @@ def _readme_figures():
     return out
 
 
-TARGET = 0.11  # issue 12: held-out position error <= 11% of the cube width, for each contact model
+TARGET = 0.11  # the calibration target: held-out position error <= 11% of the cube width, for each contact model
 # Held-out errors of the shipped files when they were shipped, plus 0.3 percentage points:
 # a refit or a code change that makes a shipped file worse than this fails for real, while
 # the 11% target itself is an expected failure (xfail below) until a file reaches it.
@@ -61,7 +61,7 @@ def shipped_evaluation():
     return figures
 
 
-# How far the README's figures may move on another machine (issue 19, section 3), as a
+# How far the README's figures may move on another machine, as a
 # fraction of the cube width. On one machine the evaluation is bitwise repeatable: per-toss
 # errors identical with 1 or 2 rollout workers and with OMP/OPENBLAS/MKL/NUMBA threads unset,
 # 1 or 4 (results are placed by toss index, not by arrival). Between machines, CPU-dependent
@@ -100,7 +100,7 @@ def test_shipped_held_out_error_stays_in_its_band(model, shipped_evaluation):
         "target not reached: held-out 12.97% (see testbed/calibration/README.md, 'Why not 11%')"))),
 ])
 def test_shipped_parameters_meet_the_11_percent_target(model, shipped_evaluation):
-    """Issue 12's target, on tosses the fit never saw (the first-frame protocol)."""
+    """The calibration target, on tosses the fit never saw (the first-frame protocol)."""
     assert shipped_evaluation(model)["test"] <= TARGET
 
 

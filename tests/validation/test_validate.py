@@ -184,7 +184,7 @@ def test_in_scene_learned_gate_can_fail_and_pins_the_known_limit():
 
     assert gate("five_stack", "hydroelastic", 0.013) is True
     assert gate("five_stack", "hydroelastic", 0.05) is False
-    # no scene is pinned since issue 30 (two_stack 0.016 mm in scene): the plain bound holds there
+    # no scene is pinned (two_stack 0.016 mm in scene): the plain bound holds there
     assert gate("two_stack", "hydroelastic", 0.0) is True and gate("two_stack", "hydroelastic", 0.032) is False
     # the pinning machinery, with a pin as two_stack had one (0.032 m, band 0.8-1.25x)
     from testbed.validation.cases import scene as scene_case
@@ -212,7 +212,7 @@ def test_first_screen_counts_limits_and_candidates(smoke_run):
     verdict = summary.split("\n\n")[1]
     assert verdict.startswith("**PASS**: ")
     assert f"{len(plain)} gates pass, {len(pinned)} hold only within pinned known limits" in verdict
-    # (the smoke suite has no pinned gate since issue 30; the listing of limits is checked on a
+    # (the smoke suite has no pinned gate; the listing of limits is checked on a
     # synthetic one in test_the_first_screen_lists_each_known_limit_with_its_bound)
     for g in pinned:  # each limit: its figure in mm and the bound it does not meet
         assert f"- {g['name']}: {g['value'] * 1e3:.4g} mm against the {g['bound'] * 1e3:.4g} mm bound" in summary
@@ -238,7 +238,7 @@ def test_first_screen_counts_limits_and_candidates(smoke_run):
 
 
 def test_the_first_screen_lists_each_known_limit_with_its_bound():
-    """A pinned gate (synthetic: no shipped scene is pinned since issue 30) is counted apart
+    """A pinned gate (synthetic: no shipped scene is pinned) is counted apart
     from the plain passes in the verdict and listed with its figure, the bound it misses and
     its band; without one the verdict says 0 and lists nothing."""
     from testbed.validation.summary import head_sections
