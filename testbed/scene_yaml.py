@@ -1,7 +1,7 @@
 """Scene YAML below the typed loader: PyYAML with Drake's !Tags kept, raw data checked
 against the scene schema with field paths in every error, and --set overrides.
 
-testbed/scenario.py turns the checked data into a Scenario (Drake's yaml_load_typed);
+testbed/scenario/ turns the checked data into a Scenario (Drake's yaml_load_typed);
 this module knows only the schema's shape (dataclass fields, pydrake config fields).
 """
 

@@ -18,7 +18,7 @@ Distributions
   orientations are snapped to within +-1 deg of one of the 24 axis-aligned rotations
   so that face-face and edge-face contact are well represented.
 Penetration depth is uniform in [0, 3 cm] in both.
-- "resting": where shipped stacks sit at the 1e9 Pa modulus (issue 20): B stacked on A,
+- "resting": where shipped stacks sit at the 1e9 Pa modulus: B stacked on A,
   penetration log-uniform in [RESTING_DEPTH] (5 um to 0.5 mm), roll and pitch uniform
   within +-0.05 deg, yaw uniform within +-2 deg, horizontal offset of B's centre
   uniform in +-0.4 m along each of A's x and y axes. u = +z of A. Its ranges are fixed
@@ -30,12 +30,12 @@ Penetration depth is uniform in [0, 3 cm] in both.
   RESTING_LEVEL_TILT (1e-9 to 1e-3 rad, any direction) instead of roll and pitch uniform
   within 0.05 deg, where tilts below 1e-5 rad are rare: stacks settled under a centred
   load sit that level, and there the tilt across the patch is a fraction of the overlap.
-- "resting_wider": where landings and overhangs leave a box resting (issue 30; RESTING_WIDER):
+- "resting_wider": where landings and overhangs leave a box resting (RESTING_WIDER):
   "resting" with yaw uniform within +-6 deg, B's centre offset uniformly up to 3 m along
   A's x (its length: a 40 ft box bridging two 20 ft ones sits 3 m off each) and 0.6 m
   along A's y, and half of the poses exactly level (roll = pitch = 0: B's z is A's z to
   the last bit), the others with roll and pitch uniform within +-0.05 deg.
-- "resting_support": the resting expert's per-axis gate (issue 30; RESTING_SUPPORT): B resting
+- "resting_support": the resting expert's per-axis gate (RESTING_SUPPORT): B resting
   on A with B's centre offset along A's x by u_x e_x and along A's y by u_y e_y, where
   e_i = max(h_A,i, h_B,i) is the edge of support along axis i (beyond it neither box's centre
   of mass lies over the other's face, so neither can rest on the other alone) and u_x, u_y are
@@ -54,6 +54,7 @@ import itertools
 import numpy as np
 
 from learned_contact.errors import DatasetError
+from learned_contact.interface import SIZE_TOLERANCE
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
@@ -236,3 +237,15 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
         direction /= np.linalg.norm(direction, axis=1, keepdims=True)
         base = np.zeros((n, 3))
     return Proposals(types, type_a, type_b, R_AB, base, direction, depth)
+
+
+def types_of_sizes(sizes, types=DEFAULT_TYPES, tolerance: float | None = None) -> tuple[str, ...]:
+    """The container types of `types` whose full extents are among `sizes` ((k, 3) or (3,) [m],
+    e.g. a predictor's supported_sizes), each axis within `tolerance` [m] (default
+    learned_contact.interface.SIZE_TOLERANCE), in the order of `types`. Passed as `sample`'s
+    (and labels.make_dataset's) `types`, the ordered pairs are drawn uniformly from these types
+    alone: poses a model declaring only these sizes answers, as many as for every type."""
+    tol = SIZE_TOLERANCE if tolerance is None else float(tolerance)
+    given = np.asarray(sizes, dtype=float).reshape(-1, 3)
+    return tuple(t for t in types
+                 if len(given) and np.abs(given - np.asarray(CONTAINER_TYPES[t].size)).max(axis=1).min() <= tol)

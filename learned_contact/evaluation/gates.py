@@ -7,11 +7,11 @@ Held-out sets (sampling seeds 10 * seed + 5, + 6, + 7, + 8, + 9; training uses +
   (training: 3 cm), of which only the poses beyond a training range are kept (a steeper
   tilt or a deeper overlap); all of them lie in the predictor's answered domain
   (DOMAIN_DEPTH).
-- "resting": where shipped stacks sit at the 1e9 Pa modulus (issue 20; sampling's
+- "resting": where shipped stacks sit at the 1e9 Pa modulus (sampling's
   "resting" distribution: overlap 5 um to 0.5 mm log-uniform, roll and pitch within
   0.05 deg, yaw within 2 deg, offsets up to 0.4 m). `resting_set(seed, n)` draws it
   alone (the bench's resting set).
-- "resting_wider": where landings and overhangs leave a box resting (issue 30; sampling's
+- "resting_wider": where landings and overhangs leave a box resting (sampling's
   "resting_wider": yaw within 6 deg, B's centre up to 3 m off A's along A's x and 0.6 m along
   y, all 20 ft / 40 ft pairs, overlap 5 um to 0.5 mm, half of the poses exactly level, the
   others with roll and pitch within 0.05 deg). `resting_wider_set(seed, n)` draws it alone;
@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.data.labels import make_dataset
+from learned_contact.data.sampling import DEFAULT_TYPES
 from learned_contact.evaluation.metrics import paper_table, point_normal_errors
 from learned_contact.model.encodings import canonicalise, features, octant_signs, paper_outputs
 from learned_contact.sources import load_predictor
@@ -116,16 +117,20 @@ REPORTED = ("general normal error median", "general normal error p95", "stacking
             "resting_wider_level point error median")
 
 
-def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False) -> dict:
+def held_out(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False,
+             types=DEFAULT_TYPES) -> dict:
     """{"stacking", "general", "outside", "resting", "resting_wider", "resting_wider_level": Dataset} of
-    held-out poses (not cached; "resting_wider_level": the exactly level poses of "resting_wider")."""
-    data = {d: make_dataset(d, n, 10 * seed + k, workers=workers, progress=progress, use_cache=False)
+    held-out poses (not cached; "resting_wider_level": the exactly level poses of "resting_wider").
+    types: the container types whose ordered pairs are drawn (learned_contact.data.sampling.sample;
+    e.g. sampling.types_of_sizes(predictor.supported_sizes) for a model declaring fewer sizes): n
+    proposals per set within those pairs; the default draws the gates' own poses."""
+    data = {d: make_dataset(d, n, 10 * seed + k, types=types, workers=workers, progress=progress, use_cache=False)
             for d, k in (("stacking", 5), ("general", 6))}
-    wide = make_dataset("stacking", n, 10 * seed + 7, workers=workers, progress=progress, use_cache=False,
-                        **OUTSIDE_RANGES)
+    wide = make_dataset("stacking", n, 10 * seed + 7, types=types, workers=workers, progress=progress,
+                        use_cache=False, **OUTSIDE_RANGES)
     data["outside"] = wide.subset(outside_training(wide))
-    data["resting"] = resting_set(seed, n, workers=workers, progress=progress)
-    data["resting_wider"] = resting_wider_set(seed, n, workers=workers, progress=progress)
+    data["resting"] = resting_set(seed, n, workers=workers, progress=progress, types=types)
+    data["resting_wider"] = resting_wider_set(seed, n, workers=workers, progress=progress, types=types)
     data["resting_wider_level"] = data["resting_wider"].subset(exactly_level(data["resting_wider"]))
     return data
 
@@ -135,16 +140,19 @@ def exactly_level(ds) -> np.ndarray:
     return (ds.R_AB[:, 0, 2] == 0.0) & (ds.R_AB[:, 1, 2] == 0.0)
 
 
-def resting_wider_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False):
+def resting_wider_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False,
+                      types=DEFAULT_TYPES):
     """The held-out "resting_wider" Dataset (sampling seed 10 * seed + 9, not cached): n
-    proposals of sampling's "resting_wider" distribution, labelled by Drake."""
-    return make_dataset("resting_wider", n, 10 * seed + 9, workers=workers, progress=progress, use_cache=False)
+    proposals of sampling's "resting_wider" distribution over `types` (held_out), labelled by Drake."""
+    return make_dataset("resting_wider", n, 10 * seed + 9, types=types, workers=workers, progress=progress,
+                        use_cache=False)
 
 
-def resting_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False):
+def resting_set(seed: int, n: int = N_HELD_OUT, *, workers: int = 2, progress: bool = False, types=DEFAULT_TYPES):
     """The held-out "resting" Dataset (sampling seed 10 * seed + 8, not cached): n
-    proposals of sampling's "resting" distribution, labelled by Drake."""
-    return make_dataset("resting", n, 10 * seed + 8, workers=workers, progress=progress, use_cache=False)
+    proposals of sampling's "resting" distribution over `types` (held_out), labelled by Drake."""
+    return make_dataset("resting", n, 10 * seed + 8, types=types, workers=workers, progress=progress,
+                        use_cache=False)
 
 
 def outside_training(ds) -> np.ndarray:

@@ -16,8 +16,9 @@
  * Two ways to call it:
  *   - fused: cc_contact_step(model, step, ...): the shipped predictor (a cc_model) inside;
  *   - split, for another predictor (a user's ONNX or Python model): cc_step_candidates (broad
- *     phase and each candidate pair's pose p_AB, R_AB; read them with cc_step_view), the
- *     caller's predictor on those poses, then cc_step_force_law with its point_A, normal_A.
+ *     phase and each candidate pair's pose p_AB, R_AB; read them with cc_step_view), with
+ *     sleeping on cc_step_sleep_plan (which candidates to ask), the caller's predictor on those
+ *     poses, then cc_step_force_law with its point_A, normal_A.
  * Both give the same answers for the same predictor answers.
  *
  * Units SI: [m], [s], [kg], [N], [N m]. Frames (Drake's monogram notation): W the world; B a
@@ -95,7 +96,9 @@ void cc_step_forget(cc_step *step);
  * angular velocities in W; v_WB (m, 3) [m/s] velocities of the body origins Bo in W (a fixed
  * body's rows are read for its pose; its velocities should be 0). Writes wrench_W (m, 6):
  * per body (torque about Bo [N m], force [N]) in W, the sum over its pairs (0 for a body in
- * no contact). Commits the held state for the next call (see cc_step_held_get). Returns
+ * no contact). With sleeping on (cc_step_set_sleep) the predictor is asked only about the
+ * candidates of awake islands (cc_step_sleep_plan). Commits the held state for the next call
+ * (see cc_step_held_get). Returns
  * CC_OK, or cc_predict's status (then *bad_row (may be NULL) is the candidate pair's row, the
  * wrenches are zero and the held state is unchanged), or CC_STEP_NO_MEMORY. */
 int cc_contact_step(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
@@ -147,6 +150,62 @@ void cc_step_held_get(const cc_step *step, int64_t *keys, double *rows, double *
 /* Replaces the held state (copied); CC_BAD_ARGUMENT if keys do not ascend or a key is out of
  * range (then the state is unchanged). history may be NULL: no body's last step. */
 int cc_step_held_set(cc_step *step, size_t s, const int64_t *keys, const double *rows, const double *history);
+
+/* ---------------------------------------------------------------- sleeping
+ * A settled yard's contacts need not be asked again every step. With sleeping enabled
+ * (cc_step_set_sleep; off at cc_step_create), each step:
+ *   - a free body is at rest when |v_WB| < v_sleep and |w_WB| < w_sleep; its rest time grows
+ *     by h per step at rest and drops to 0 otherwise;
+ *   - islands: the connected components of the candidate pairs over the free bodies (a fixed
+ *     body never joins two islands); a pair with a fixed body belongs to its free body's;
+ *   - an island whose bodies have all been at rest for t_sleep falls asleep: that step its
+ *     pairs are still asked and each body's pose is kept as its sleeping pose;
+ *   - an asleep island's pairs are not asked: each reuses the answer (point_A, normal_A) it got
+ *     at the previous step, while the force law runs on the current poses and velocities;
+ *   - it wakes (its pairs are asked) when any body leaves rest, when a body has moved from its
+ *     sleeping pose by more than eps_p at any point of its box (|dp| + angle x the half
+ *     diagonal) or turned by more than eps_R, when a candidate pair of the island was not a
+ *     candidate at the previous step (a new contact, a link to another island: an awake body
+ *     touching it joins its island and wakes it), or when the host wakes a body
+ *     (cc_step_sleep_wake: a rope or another external force changes). A woken island whose
+ *     bodies are still at rest falls asleep again at once at its new poses, so a reused answer
+ *     is never from poses further than eps_p / eps_R from the current ones.
+ * The sleeping state lives in the step (not in cc_step_held_get's held state): cc_step_forget
+ * and cc_step_sleep_reset clear it. */
+typedef struct cc_step_sleep {
+  int enabled;    /* 1 = sleeping on */
+  double v_sleep; /* [m/s] rest speed of the body origin (>= 0) */
+  double w_sleep; /* [rad/s] rest angular speed (>= 0) */
+  double t_sleep; /* [s] time at rest before an island sleeps (>= 0) */
+  double eps_p;   /* [m] largest motion of any point of a sleeping body before its island wakes (>= 0) */
+  double eps_R;   /* [rad] largest rotation of a sleeping body before its island wakes (>= 0) */
+} cc_step_sleep;
+
+/* The latest step's sleeping figures. */
+typedef struct cc_step_sleep_counts {
+  size_t asked;          /* candidate pairs the predictor was asked about */
+  size_t reused;         /* candidate pairs that reused their last answer (asleep) */
+  size_t islands;        /* islands with at least one candidate pair */
+  size_t islands_asleep; /* of those, asleep */
+  size_t bodies_asleep;  /* free bodies in asleep islands (those with a candidate pair) */
+} cc_step_sleep_counts;
+
+/* Sets the sleeping parameters (NULL = off); CC_BAD_ARGUMENT for a negative or non-finite
+ * figure (then nothing changes). Turning it off or on clears the sleeping state. */
+int cc_step_set_sleep(cc_step *step, const cc_step_sleep *sleep);
+/* Clears the sleeping state: every body awake with no rest time, no answer kept. */
+void cc_step_sleep_reset(cc_step *step);
+/* The host wakes bodies (n of them, body indices): their islands are asked at the next step. */
+void cc_step_sleep_wake(cc_step *step, size_t n, const int64_t *bodies);
+/* Split step, between cc_step_candidates and the predictor: updates the rest times and the
+ * islands with the step's velocities w_WB, v_WB (m, 3) (as cc_contact_step's) and writes
+ * ask (k): 1 = ask the predictor about this candidate, 0 = asleep: its last answer is already
+ * in the view's point_A, normal_A (cc_step_view). Pass cc_step_force_law point_A, normal_A
+ * (k, 3) holding the predictor's answers on the asked rows and these on the others.
+ * *n_asked (may be NULL) counts the 1s. With sleeping off every row is asked. The fused
+ * cc_contact_step does all this itself. CC_BAD_ARGUMENT without candidates. */
+int cc_step_sleep_plan(cc_step *step, const double *w_WB, const double *v_WB, uint8_t *ask, size_t *n_asked);
+void cc_step_sleep_get_counts(const cc_step *step, cc_step_sleep_counts *out);
 
 /* The force law's elastic part for one pose (p_AB (3) [m], R_AB (9), half extents hA, hB (3)
  * [m]): out[0] the Winkler foundation force kappa x the penetration volume over the face

@@ -43,6 +43,20 @@ struct cc_step {
   double *p_AB, *R_AB, *size_A, *size_B, *point_A, *normal_A, *fn, *f_W, *p_W, *n_W, *area;
   double *kap, *held, *anchors_next, *stuck_next, *F_el, *g, *W_rr, *vn0, *an_ext, *rA, *rB, *cA, *cB, *f;
   uint8_t *touch;
+  /* sleeping (cc_step_set_sleep) */
+  cc_step_sleep sleep;
+  cc_step_sleep_counts counts;
+  double *rest;          /* (m) [s] time at rest */
+  uint8_t *asleep;       /* (m) in an asleep island */
+  double *p_ref, *R_ref; /* (m, 3), (m, 3, 3) the pose where its island fell asleep */
+  size_t *parent;        /* (m) union-find over the candidate pairs */
+  uint8_t *island;       /* (m) per island root: SLEEP_* bits */
+  size_t n_cache, cache_cap;
+  int64_t *cache_keys;   /* the previous step's candidates' keys, ascending */
+  double *cache_ans;     /* (cache_cap, 6) their answers: point_A, normal_A */
+  uint8_t *ask;          /* (k) ask the predictor */
+  double *q_p, *q_R, *q_sA, *q_sB, *q_pt, *q_nm; /* the asked rows, packed for cc_predict */
+  size_t *q_row;         /* (k) each packed row's candidate row */
 };
 
 static int reserve_pairs(cc_step *s, size_t n);
@@ -84,7 +98,9 @@ void cc_step_free(cc_step *s) {
                    s->order, s->order_tmp, s->need, s->cand, s->cand_tmp, s->ia, s->ib, s->p_AB, s->R_AB,
                    s->size_A, s->size_B, s->point_A, s->normal_A, s->fn, s->f_W, s->p_W, s->n_W, s->area, s->kap,
                    s->held, s->anchors_next, s->stuck_next, s->F_el, s->g, s->W_rr, s->vn0, s->an_ext, s->rA,
-                   s->rB, s->cA, s->cB, s->f, s->touch};
+                   s->rB, s->cA, s->cB, s->f, s->touch, s->rest, s->asleep, s->p_ref, s->R_ref, s->parent,
+                   s->island, s->cache_keys, s->cache_ans, s->ask, s->q_p, s->q_R, s->q_sA, s->q_sB, s->q_pt,
+                   s->q_nm, s->q_row};
   for (size_t i = 0; i < sizeof owned / sizeof owned[0]; ++i) free(owned[i]);
   free(s);
 }
@@ -105,10 +121,18 @@ int cc_step_set_params(cc_step *s, const cc_step_params *q) {
   return set_params(s, q);
 }
 
+void cc_step_sleep_reset(cc_step *s) {
+  if (s == NULL) return;
+  memset(s->rest, 0, s->m * sizeof(double));
+  memset(s->asleep, 0, s->m);
+  s->n_cache = 0;
+}
+
 void cc_step_forget(cc_step *s) {
   if (s == NULL) return;
   s->n_held = 0;
   for (size_t i = 0; i < s->m * BODY; ++i) s->history[i] = NAN;
+  cc_step_sleep_reset(s);
 }
 
 cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params, int *status) {
@@ -145,7 +169,10 @@ cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params
            resize((void **)&s->acc, 6 * m, sizeof(double)) && resize((void **)&s->dacc, 6 * m, sizeof(double)) &&
            resize((void **)&s->order, m, sizeof(size_t)) && resize((void **)&s->order_tmp, m, sizeof(size_t)) &&
            resize((void **)&s->need, m, 1) && resize((void **)&s->box, 6 * m, sizeof(double)) &&
-           resize((void **)&s->box_free, m, 1);
+           resize((void **)&s->box_free, m, 1) && resize((void **)&s->rest, m, sizeof(double)) &&
+           resize((void **)&s->asleep, m, 1) && resize((void **)&s->p_ref, 3 * m, sizeof(double)) &&
+           resize((void **)&s->R_ref, 9 * m, sizeof(double)) && resize((void **)&s->parent, m, sizeof(size_t)) &&
+           resize((void **)&s->island, m, 1);
   if (!ok) {
     cc_step_free(s);
     *status = CC_STEP_NO_MEMORY;
@@ -206,6 +233,10 @@ static int reserve_pairs(cc_step *s, size_t n) {
       {(void **)&s->rA, 3 * sizeof(double)},    {(void **)&s->rB, 3 * sizeof(double)},
       {(void **)&s->cA, 3 * sizeof(double)},    {(void **)&s->cB, 3 * sizeof(double)},
       {(void **)&s->f, sizeof(double)},         {(void **)&s->touch, 1},
+      {(void **)&s->ask, 1},                    {(void **)&s->q_row, sizeof(size_t)},
+      {(void **)&s->q_p, 3 * sizeof(double)},   {(void **)&s->q_R, 9 * sizeof(double)},
+      {(void **)&s->q_sA, 3 * sizeof(double)},  {(void **)&s->q_sB, 3 * sizeof(double)},
+      {(void **)&s->q_pt, 3 * sizeof(double)},  {(void **)&s->q_nm, 3 * sizeof(double)},
   };
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
     if (!resize(arrays[i].ptr, cap, arrays[i].elem)) return 0;
@@ -853,10 +884,13 @@ static void commit_held(cc_step *s) {
   memcpy(s->history, s->history_next, BODY * m * sizeof(double));
 }
 
+static int keep_answers(cc_step *s);
+
 static int run_law(cc_step *s, const double *w_WB, const double *v_WB, double *wrench_W) {
   gather_pairs(s);
   pair_wrenches(s, w_WB, v_WB, wrench_W);
   commit_held(s);
+  if (s->sleep.enabled && !keep_answers(s)) return CC_STEP_NO_MEMORY;
   s->have_pairs = 0; /* a second law on the same candidates would read the next held state */
   return CC_OK;
 }
@@ -869,6 +903,31 @@ int cc_step_force_law(cc_step *s, const double *w_WB, const double *v_WB, const 
   if (s->k > 0 && point_A != s->point_A) memcpy(s->point_A, point_A, 3 * s->k * sizeof(double));
   if (s->k > 0 && normal_A != s->normal_A) memcpy(s->normal_A, normal_A, 3 * s->k * sizeof(double));
   return run_law(s, w_WB, v_WB, wrench_W);
+}
+
+/* cc_predict on the asked rows only (packed), the answers put back in their rows */
+static int predict_asked(const cc_model *model, cc_step *s, size_t n_ask, size_t *bad_row) {
+  size_t n = 0;
+  for (size_t r = 0; r < s->k; ++r) {
+    if (!s->ask[r]) continue;
+    memcpy(s->q_p + 3 * n, s->p_AB + 3 * r, 3 * sizeof(double));
+    memcpy(s->q_R + 9 * n, s->R_AB + 9 * r, 9 * sizeof(double));
+    memcpy(s->q_sA + 3 * n, s->size_A + 3 * r, 3 * sizeof(double));
+    memcpy(s->q_sB + 3 * n, s->size_B + 3 * r, 3 * sizeof(double));
+    s->q_row[n++] = r;
+  }
+  if (n == 0 || n != n_ask) return n == n_ask ? CC_OK : CC_BAD_ARGUMENT;
+  size_t bad = 0;
+  int status = cc_predict(model, n, s->q_p, s->q_R, s->q_sA, n, s->q_sB, n, s->q_pt, s->q_nm, NULL, &bad);
+  if (status != CC_OK) {
+    if (bad_row != NULL) *bad_row = bad < n ? s->q_row[bad] : bad;
+    return status;
+  }
+  for (size_t q = 0; q < n; ++q) {
+    memcpy(s->point_A + 3 * s->q_row[q], s->q_pt + 3 * q, 3 * sizeof(double));
+    memcpy(s->normal_A + 3 * s->q_row[q], s->q_nm + 3 * q, 3 * sizeof(double));
+  }
+  return CC_OK;
 }
 
 static double now_s(void) {
@@ -886,10 +945,17 @@ int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB,
   size_t k;
   int status = cc_step_candidates(s, p_WB, R_WB, &k);
   if (status != CC_OK) return status;
+  size_t n_ask = k; /* the islands join the candidates' share of the time */
+  status = cc_step_sleep_plan(s, w_WB, v_WB, s->ask, &n_ask); /* every row asked when sleeping is off */
+  if (status != CC_OK) return status;
   if (seconds != NULL) t1 = now_s();
   if (k > 0) {
-    status = cc_predict(model, k, s->p_AB, s->R_AB, s->size_A, k, s->size_B, k, s->point_A, s->normal_A, NULL,
-                        bad_row);
+    if (n_ask == k) {
+      status = cc_predict(model, k, s->p_AB, s->R_AB, s->size_A, k, s->size_B, k, s->point_A, s->normal_A, NULL,
+                          bad_row);
+    } else {
+      status = predict_asked(model, s, n_ask, bad_row);
+    }
     if (status != CC_OK) {
       memset(wrench_W, 0, 6 * s->m * sizeof(double));
       s->have_pairs = 0;
@@ -958,4 +1024,172 @@ int cc_step_held_set(cc_step *s, size_t n, const int64_t *keys, const double *ro
   else
     for (size_t i = 0; i < s->m * BODY; ++i) s->history[i] = NAN;
   return CC_OK;
+}
+
+/* ------------------------------------------------------------------ sleeping */
+
+enum { SLEEP_REST = 1, SLEEP_ASLEEP = 2, SLEEP_NEAR = 4, SLEEP_KNOWN = 8, SLEEP_PAIRS = 16, SLEEP_STAYS = 32 };
+
+int cc_step_set_sleep(cc_step *s, const cc_step_sleep *q) {
+  if (s == NULL) return CC_BAD_ARGUMENT;
+  cc_step_sleep off = {0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  if (q == NULL) q = &off;
+  const double x[5] = {q->v_sleep, q->w_sleep, q->t_sleep, q->eps_p, q->eps_R};
+  for (int i = 0; i < 5; ++i)
+    if (!(isfinite(x[i]) && x[i] >= 0)) return CC_BAD_ARGUMENT;
+  s->sleep = *q;
+  s->sleep.enabled = q->enabled ? 1 : 0;
+  cc_step_sleep_reset(s);
+  return CC_OK;
+}
+
+void cc_step_sleep_wake(cc_step *s, size_t n, const int64_t *bodies) {
+  if (s == NULL || bodies == NULL) return;
+  for (size_t t = 0; t < n; ++t)
+    if (bodies[t] >= 0 && (size_t)bodies[t] < s->m) s->rest[bodies[t]] = 0.0;
+}
+
+void cc_step_sleep_get_counts(const cc_step *s, cc_step_sleep_counts *out) {
+  if (out == NULL) return;
+  if (s == NULL)
+    memset(out, 0, sizeof *out);
+  else
+    *out = s->counts;
+}
+
+static size_t root_of(size_t *parent, size_t i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]]; /* path halving */
+    i = parent[i];
+  }
+  return i;
+}
+
+/* whether body i has left its sleeping pose: any point of its box moved by more than eps_p
+ * (|dp| + angle x half diagonal, the angle from the skew part of R R_ref^T) or turned more than eps_R */
+static int left_pose(const cc_step *s, size_t i) {
+  const double *p = s->p + 3 * i, *R = s->R + 9 * i, *p0 = s->p_ref + 3 * i, *R0 = s->R_ref + 9 * i;
+  double d2 = 0.0, M[9];
+  for (int a = 0; a < 3; ++a) d2 += (p[a] - p0[a]) * (p[a] - p0[a]);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) M[3 * r + c] = R[3 * r] * R0[3 * c] + R[3 * r + 1] * R0[3 * c + 1] + R[3 * r + 2] * R0[3 * c + 2];
+  if (M[0] + M[4] + M[8] < 1.0) return 1; /* turned beyond 90 degrees */
+  double sx = M[7] - M[5], sy = M[2] - M[6], sz = M[3] - M[1];
+  double angle = asin(py_min(1.0, 0.5 * sqrt(sx * sx + sy * sy + sz * sz)));
+  return angle > s->sleep.eps_R || sqrt(d2) + angle * s->radius[i] > s->sleep.eps_p;
+}
+
+/* the island (root) a candidate row belongs to; m for a pair of two fixed bodies */
+static size_t pair_island(cc_step *s, size_t r) {
+  size_t i = (size_t)s->ia[r], j = (size_t)s->ib[r];
+  if (s->free[i]) return root_of(s->parent, i);
+  if (s->free[j]) return root_of(s->parent, j);
+  return s->m;
+}
+
+int cc_step_sleep_plan(cc_step *s, const double *w, const double *v, uint8_t *ask, size_t *n_asked) {
+  if (s == NULL || !s->have_pairs || ask == NULL || (s->m > 0 && (w == NULL || v == NULL))) return CC_BAD_ARGUMENT;
+  const size_t m = s->m, k = s->k;
+  const cc_step_sleep *q = &s->sleep;
+  memset(&s->counts, 0, sizeof s->counts);
+  if (!q->enabled) {
+    memset(ask, 1, k);
+    s->counts.asked = k;
+    if (n_asked != NULL) *n_asked = k;
+    return CC_OK;
+  }
+  const double h = s->par.h, v2 = q->v_sleep * q->v_sleep, w2 = q->w_sleep * q->w_sleep;
+  for (size_t i = 0; i < m; ++i) {
+    s->parent[i] = i;
+    s->island[i] = SLEEP_REST | SLEEP_ASLEEP | SLEEP_NEAR | SLEEP_KNOWN;
+    if (!s->free[i]) continue;
+    const double *vi = v + 3 * i, *wi = w + 3 * i;
+    double sv = vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2], sw = wi[0] * wi[0] + wi[1] * wi[1] + wi[2] * wi[2];
+    s->rest[i] = (sv < v2 && sw < w2) ? s->rest[i] + h : 0.0;
+  }
+  for (size_t r = 0; r < k; ++r) { /* islands: the pairs of two free bodies join them */
+    size_t i = (size_t)s->ia[r], j = (size_t)s->ib[r];
+    if (!(s->free[i] && s->free[j])) continue;
+    size_t a = root_of(s->parent, i), b = root_of(s->parent, j);
+    if (a != b) s->parent[a < b ? b : a] = a < b ? a : b;
+  }
+  for (size_t i = 0; i < m; ++i) {
+    if (!s->free[i]) continue;
+    size_t root = root_of(s->parent, i);
+    if (s->rest[i] <= 0.0 || s->rest[i] < q->t_sleep - 0.5 * h) s->island[root] &= (uint8_t)~SLEEP_REST;
+    if (!s->asleep[i])
+      s->island[root] &= (uint8_t)~SLEEP_ASLEEP;
+    else if (left_pose(s, i))
+      s->island[root] &= (uint8_t)~SLEEP_NEAR;
+  }
+  /* the pairs not candidates at the previous step (a merge of two ascending key lists) */
+  size_t c = 0;
+  for (size_t r = 0; r < k; ++r) {
+    size_t root = pair_island(s, r);
+    if (root == m) continue;
+    s->island[root] |= SLEEP_PAIRS;
+    int64_t key = s->ia[r] * (int64_t)m + s->ib[r];
+    while (c < s->n_cache && s->cache_keys[c] < key) ++c;
+    if (c < s->n_cache && s->cache_keys[c] == key) { /* its last answer, put in place if the island stays asleep */
+      memcpy(s->q_pt + 3 * r, s->cache_ans + 6 * c, 3 * sizeof(double));
+      memcpy(s->q_nm + 3 * r, s->cache_ans + 6 * c + 3, 3 * sizeof(double));
+    } else {
+      s->island[root] &= (uint8_t)~SLEEP_KNOWN;
+    }
+  }
+  const uint8_t stays = SLEEP_REST | SLEEP_ASLEEP | SLEEP_NEAR | SLEEP_KNOWN;
+  for (size_t i = 0; i < m; ++i) {
+    if (!s->free[i]) continue;
+    size_t root = root_of(s->parent, i);
+    uint8_t f = s->island[root];
+    if ((f & stays) == stays) {
+      s->island[root] |= SLEEP_STAYS; /* asleep: the cached answers */
+    } else if (f & SLEEP_REST) {      /* falls asleep: asked once more, at the sleeping pose */
+      memcpy(s->p_ref + 3 * i, s->p + 3 * i, 3 * sizeof(double));
+      memcpy(s->R_ref + 9 * i, s->R + 9 * i, 9 * sizeof(double));
+    }
+    s->asleep[i] = (f & SLEEP_REST) ? 1 : 0;
+  }
+  size_t n = 0;
+  for (size_t r = 0; r < k; ++r) {
+    size_t root = pair_island(s, r);
+    ask[r] = !(root < m && (s->island[root] & SLEEP_STAYS));
+    if (ask[r]) {
+      ++n;
+    } else {
+      memcpy(s->point_A + 3 * r, s->q_pt + 3 * r, 3 * sizeof(double));
+      memcpy(s->normal_A + 3 * r, s->q_nm + 3 * r, 3 * sizeof(double));
+    }
+  }
+  for (size_t i = 0; i < m; ++i) {
+    if (!s->free[i]) continue;
+    size_t root = root_of(s->parent, i);
+    if ((s->island[root] & (SLEEP_STAYS | SLEEP_PAIRS)) == (SLEEP_STAYS | SLEEP_PAIRS)) ++s->counts.bodies_asleep;
+    if (root == i && (s->island[i] & SLEEP_PAIRS)) {
+      ++s->counts.islands;
+      if (s->island[i] & SLEEP_STAYS) ++s->counts.islands_asleep;
+    }
+  }
+  s->counts.asked = n;
+  s->counts.reused = k - n;
+  if (n_asked != NULL) *n_asked = n;
+  return CC_OK;
+}
+
+/* the step's answers kept for the next (asleep islands reuse them) */
+static int keep_answers(cc_step *s) {
+  if (s->k > s->cache_cap) {
+    size_t cap = s->cache_cap ? s->cache_cap : 64;
+    while (cap < s->k) cap *= 2;
+    if (!resize((void **)&s->cache_keys, cap, sizeof(int64_t)) || !resize((void **)&s->cache_ans, cap, 6 * sizeof(double)))
+      return 0;
+    s->cache_cap = cap;
+  }
+  for (size_t r = 0; r < s->k; ++r) {
+    s->cache_keys[r] = s->ia[r] * (int64_t)s->m + s->ib[r];
+    memcpy(s->cache_ans + 6 * r, s->point_A + 3 * r, 3 * sizeof(double));
+    memcpy(s->cache_ans + 6 * r + 3, s->normal_A + 3 * r, 3 * sizeof(double));
+  }
+  s->n_cache = s->k;
+  return 1;
 }

@@ -1,9 +1,11 @@
 """`testbed bench`: any set of predictors judged side by side, the same way.
 
-  accuracy.py  held-out pose sets (the gates' and a resting set), figures and ratios to the prior
+  model.py     resolve(spec): the model loaded once, with the container sizes it declares (every section takes it)
+  accuracy.py  held-out pose sets (the gates' and a resting set; a model's own sizes' when it declares fewer),
+               figures and ratios to the prior
   cost.py      cost per query (one pair per call, batched, first call) against Drake and the shipped predictor
   yard_budget.py  pairs each predictor answers within a 1 ms step beside the host engine's own step
-  scenes.py    in-scene (open loop) accuracy and closed-loop verdicts in the shipped scenes
+  scenes.py    in-scene (open loop) accuracy with its gates and closed-loop verdicts in the shipped scenes its sizes allow
   run.py       bench(specs, quick, out_dir): the Python API; the leaderboard and one verdict per predictor
   report.py    bench.json, summary.md, index.html
 """

@@ -1,14 +1,16 @@
 """The bench's accuracy section: every predictor on the same held-out pose sets.
 
 Sets (labelled by Drake's static hydroelastic contact, learned_contact.data.labels; the
-seeds the accuracy gates use, so the figures are the gates' own):
+seeds the accuracy gates use, so the figures are the gates' own; a model declaring fewer
+container sizes gets the same sets drawn over the ordered pairs of its own types alone, as many
+proposals: learned_contact.data.sampling.types_of_sizes):
 - "stacking", "general", "outside": learned_contact.evaluation.gates.held_out (the training
   distributions re-drawn from unused seeds, and stacking poses beyond the training
   ranges);
 - "resting": where shipped stacks sit at 1e9 Pa (learned_contact.data.sampling's "resting"
   distribution: overlap log-uniform from 5 um to 0.5 mm, roll and pitch within 0.05 deg,
   yaw within 2 deg, offsets up to 0.4 m), the gates' own resting set;
-- "resting_wider": where landings and overhangs leave a box resting (issue 30: yaw within
+- "resting_wider": where landings and overhangs leave a box resting (yaw within
   6 deg, offsets up to 3 m along A's x and 0.6 m along y, half of the poses exactly level),
   the gates' own wider resting set, and "resting_wider_level", its exactly level poses.
 
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from learned_contact.data.sampling import DEFAULT_TYPES
 from learned_contact.evaluation.gates import GeometricPrior, gate_figures, held_out, verdicts
 from learned_contact.evaluation.metrics import point_normal_errors
 from learned_contact.interface import SIZE_TOLERANCE
@@ -30,9 +33,11 @@ SETS = ("stacking", "general", "outside", "resting", "resting_wider", "resting_w
 STATS = (("median", 50), ("p95", 95), ("p99", 99))
 
 
-def pose_sets(seed: int, n: int, *, workers: int = 2) -> dict:
-    """{set name: learned_contact Dataset}: the gates' held-out sets (SETS: resting and resting_wider included)."""
-    return held_out(seed, n, workers=workers)
+def pose_sets(seed: int, n: int, *, workers: int = 2, types=DEFAULT_TYPES) -> dict:
+    """{set name: learned_contact Dataset}: the gates' held-out sets (SETS: resting and resting_wider
+    included), n proposals each, drawn over the ordered pairs of container `types` (the default: the
+    gates' own poses; a model's declared types, BenchModel.types: as many poses, all of its sizes)."""
+    return held_out(seed, n, workers=workers, types=tuple(types))
 
 
 def _stats(point, normal, ds) -> dict:
@@ -72,8 +77,10 @@ def covered(predictor, data: dict) -> tuple[dict, dict]:
 
 def accuracy(predictor, data: dict, seed: int) -> dict:
     """{"sets": {set: figures + "*_vs_prior" ratios + "n"}, "gates": learned_contact.evaluation.gates
-    verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one predictor
-    on the poses of `data` (pose_sets) it declares it answers (`covered`)."""
+    verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one predictor (or
+    BenchModel) on the poses of `data` (pose_sets: drawn over its declared types, so all of them)
+    it declares it answers (`covered`)."""
+    predictor = getattr(predictor, "predictor", predictor)
     data, counts = covered(predictor, data)
     prior = GeometricPrior()
     sets = {}

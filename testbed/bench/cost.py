@@ -19,8 +19,9 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.evaluation.cost import drake_point_pair_cost, first_call_s, one_blas_thread, predictor_cost as _timed
-from learned_contact.sources import DEFAULT, load_predictor
+from learned_contact.sources import DEFAULT
 from testbed.bench.accuracy import covered
+from testbed.bench.model import resolve
 
 SINGLE_PAIRS = 200
 BATCH = 1000
@@ -39,14 +40,17 @@ def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: in
     return singles, batched
 
 
-def predictor_cost(spec: str, singles, batched, repeats: int = 3) -> dict:
-    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} [s] of the predictor `spec`
-    (and the model's own and the wrapper's figures, learned_contact.evaluation.cost.predictor_cost)."""
-    return {"first_call_s": first_call_s(spec), **_timed(load_predictor(spec), singles, batched, repeats)}
+def predictor_cost(model, singles, batched, repeats: int = 3) -> dict:
+    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} [s] of `model` (a BenchModel or
+    predictor string; the first call is its spec's, in a fresh process) and the model's own and the
+    wrapper's figures (learned_contact.evaluation.cost.predictor_cost)."""
+    m = resolve(model)
+    return {"first_call_s": first_call_s(m.spec), **_timed(m.predictor, singles, batched, repeats)}
 
 
-def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
-    """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process.
+def cost_table(models, data: dict, repeats: int = 3) -> dict:
+    """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process for
+    `models` (BenchModels or predictor strings).
     Costs [s per pair] as learned_contact.evaluation.cost.predictor_cost (for a model the testbed did
     not ship: the full call, the model's own call and the wrapper's share); ratios to Drake's
     point-pair query and to the shipped predictor are of the full call, and for such a model also
@@ -58,11 +62,12 @@ def cost_table(specs: list[str], data: dict, repeats: int = 3) -> dict:
         reference = predictor_cost(DEFAULT, singles, batched, repeats)
         drake = drake_point_pair_cost(singles, repeats)["set_pose_and_query_s_per_pair"]
     out = {}
-    for spec in specs:
-        own, counts = covered(load_predictor(spec), {k: data[k] for k in ("stacking", "general")})
+    for m in map(resolve, models):
+        spec = m.spec
+        own, counts = covered(m.predictor, {k: data[k] for k in ("stacking", "general")})
         mine = (singles, batched) if all(kept == of for kept, of in counts.values()) else poses(own)
         with one_blas_thread():
-            c = reference if spec == DEFAULT else predictor_cost(spec, *mine, repeats)
+            c = reference if spec == DEFAULT else predictor_cost(m, *mine, repeats)
         out[spec] = {**c,
                      "single_vs_drake_point": c["single_s_per_pair"] / drake,
                      "batched_vs_drake_point": c["batched_s_per_pair"] / drake,

@@ -21,6 +21,11 @@ def _n(value, scale=1.0, fmt=".3g") -> str:
     return format(value * scale, fmt)
 
 
+def _set(sets: dict, name: str, key: str):
+    """A figure of one accuracy set, None when the set was not judged (no pose of the model's sizes)."""
+    return sets.get(name, {}).get(key)
+
+
 def _leaderboard(data: dict) -> Section:
     rows = []
     for rank, spec in enumerate(data["leaderboard"], 1):
@@ -32,16 +37,18 @@ def _leaderboard(data: dict) -> Section:
         rows.append((rank, e["label"], e["kind"], good,
                      f"{e['accuracy']['gates_passed']}/{e['accuracy']['gates_total']}",
                      f"{sum(f['passed'] for f in closed.values())}/{len(closed)}",
-                     _n(s["stacking"]["point_median_m"], 100), _n(s["resting"]["point_median_m"], 100),
-                     _n(s["general"]["point_p95_m"], 100), _n(s["stacking"]["normal_p95_deg"]),
+                     _n(_set(s, "stacking", "point_median_m"), 100), _n(_set(s, "resting", "point_median_m"), 100),
+                     _n(_set(s, "general", "point_p95_m"), 100), _n(_set(s, "stacking", "normal_p95_deg")),
                      _n(c["single_s_per_pair"], 1e6), _n(c["batched_s_per_pair"], 1e6),
                      _n(c["batched_vs_drake_point"], fmt=".2g")))
     return Section("Leaderboard", [
         table(["#", "predictor", "source", "good enough", "accuracy gates", "closed-loop scenes", "stacking point "
                "median [cm]", "resting point median [cm]", "general point p95 [cm]", "stacking normal p95 [deg]",
                "us/pair single", "us/pair batched", "batched / Drake point-pair"], rows),
-        Text("Good enough = every accuracy gate of learned_contact/evaluation/gates.py and every closed-loop gate on every "
-             "scene passes; 'within N known limits' = N of them pass only inside a band pinned around the shipped "
+        Text("Good enough = every accuracy gate of learned_contact/evaluation/gates.py, every in-scene gate "
+             "(testbed/gates/in_scene.py) and every closed-loop gate on every scene passes; a model declaring fewer "
+             "container sizes is judged on poses and scenes of its sizes (the first screen says which); "
+             "'within N known limits' = N of them pass only inside a band pinned around the shipped "
              "predictor's figure, where the target itself is not met (each verdict line lists them). Costs are "
              "measured side by side in this process (best of the rounds)."),
     ], order=1)
@@ -75,8 +82,9 @@ def _plot(data: dict) -> Figure:
     for spec in data["leaderboard"]:
         e = data["predictors"][spec]
         sets = e["accuracy"]["sets"]
-        axes[0].scatter(e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100, s=40)
-        axes[0].annotate(e["label"], (e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100))
+        if "stacking" in sets:
+            axes[0].scatter(e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100, s=40)
+            axes[0].annotate(e["label"], (e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100))
         axes[1].plot(list(sets), [f["point_median_m"] * 100 for f in sets.values()], "o-", label=e["label"])
     drake = data["references"]["drake_point_pair_set_pose_and_query_s_per_pair"] * 1e6
     axes[0].axvline(drake, color="grey", ls="--", label="Drake point-pair query")
@@ -151,18 +159,18 @@ def _scenes(data: dict) -> Section:
         for scene, f in e["in_scene"].items():
             open_rows.append((e["label"], scene, _n(f["duration_s"], fmt="g"), _n(f["point_error_median_m"], 100),
                               _n(f["point_error_max_m"], 100), _n(f["normal_error_median_deg"]),
-                              _n(f["normal_error_max_deg"])))
+                              _n(f["normal_error_max_deg"]), _gates_cell(f.get("gates", []))))
         for scene, f in e["closed_loop"].items():
-            bad = [g["name"] for g in f["gates"] if not g["passed"]]
             closed_rows.append((e["label"], scene, _n(f["duration_s"], fmt="g"), "yes" if f["diverged"] else "no",
                                 _n(f["final_position_error_max_m"], 1e3), _n(f["final_angle_error_max_deg"]),
                                 _n(f["max_penetration_m"], 1e3), _n(f["speedup_vs_truth"], fmt=".2f"),
-                                "PASS" if f["passed"] else "FAIL: " + ", ".join(bad)))
+                                _gates_cell(f["gates"])))
     return Section("In the shipped scenes", [
         Text("Open loop: Drake hydroelastic contact drives the scene; the predictor is asked at every recorded step "
-             "and compared with Drake's centre of pressure and normal."),
+             "and compared with Drake's centre of pressure and normal; the in-scene gate (testbed/gates/in_scene.py, "
+             "the validation scene case's and testbed compare's) bounds the point error's median."),
         table(["predictor", "scene", "simulated [s]", "point median [cm]", "point max [cm]", "normal median [deg]",
-               "normal max [deg]"], open_rows),
+               "normal max [deg]", "gates"], open_rows),
         Text("Closed loop: the predictor drives the container-container contact (learned_dynamics) against one Drake "
              "hydroelastic truth run per scene; the gates of the validation's closed-loop section, for every predictor."),
         table(["predictor", "scene", "simulated [s]", "diverged", "final position error [mm]", "final angle error [deg]",
@@ -173,7 +181,8 @@ def _scenes(data: dict) -> Section:
 def _discrimination(data: dict) -> list:
     """How much each scene where the contact point decides can tell apart (measured by
     bisection on the shipped predictor: closed_loop.DISCRIMINATION), for the scenes benched."""
-    scenes = [s for s in next(iter(data["predictors"].values()))["closed_loop"] if s in DISCRIMINATION]
+    benched = dict.fromkeys(s for e in data["predictors"].values() for s in e["closed_loop"])
+    scenes = [s for s in benched if s in DISCRIMINATION]
     if not scenes:
         return []
     return [Text("What a scene can tell apart: the smallest change to the shipped predictor that fails its gates "
@@ -182,27 +191,69 @@ def _discrimination(data: dict) -> list:
             Bullets(tuple(f"{s}: {DISCRIMINATION[s]}" for s in scenes))]
 
 
-def headline(data: dict) -> tuple[bool, list[str]]:
-    """(every judged model good enough, one line per model: the judged models first, then
-    the others as references). The judged models are those the user named that the testbed
-    did not ship (testbed.bench.run.judged); the headline and the exit status speak of them."""
+def _gates_cell(gates: list) -> str:
+    """'PASS', or 'FAIL: ' and the failed gates' names."""
+    bad = [g["name"] for g in gates if not g["passed"]]
+    return "FAIL: " + ", ".join(bad) if bad else ("PASS" if gates else "-")
+
+
+def size_lines(entry: dict) -> list[str]:
+    """What the model declares and what that excludes, one line each (bench.json's "sizes",
+    testbed.bench.run.sizes_entry): the declared sizes; for a model declaring fewer than every
+    shipped type, the accuracy sets' type pairs and each scene section's skipped and added scenes."""
+    z = entry.get("sizes")
+    if not z:
+        return []
+    who = entry["label"]
+    if z["every_size"]:
+        return [f"{who} declares every shipped container size: {z['text']}"]
+    lines = [f"{who} declares {len(z['declared'])} container size(s): {z['text']}; judged within them",
+             f"{who}: accuracy sets drawn over {len(z['accuracy_pairs'])} of the {z['accuracy_pairs_of']} ordered "
+             f"container type pairs ({', '.join(z['accuracy_pairs']) or 'none: no shipped type, no accuracy set'}), "
+             "as many poses per set as for every model"]
+    for key, what in (("in_scene", "in-scene (open loop)"), ("closed_loop", "closed loop")):
+        part = z[key]
+        for why in part["skipped"]:
+            lines.append(f"{who}: {what} skipped {why}")
+        if part["skipped"]:
+            lines.append(f"{who}: {what} run instead: "
+                         + (", ".join(part["added"]) if part["added"] else "none (no shipped scene of its sizes)"))
+    return lines
+
+
+def verdict_lines(data: dict) -> list[str]:
+    """One verdict line per model: the judged models first, then the others as references."""
     judged = data.get("judged") or list(data["leaderboard"])
     lines = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}" for s in judged]
-    lines += [f"reference {data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}"
-              for s in data["leaderboard"] if s not in judged]
+    return lines + [f"reference {data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}"
+                    for s in data["leaderboard"] if s not in judged]
+
+
+def headline(data: dict) -> tuple[bool, list[str]]:
+    """(every judged model good enough, the lines `testbed bench` prints: per model its verdict
+    line, the judged models first, then the others as references, each followed, indented, by
+    what a model declaring fewer sizes was not judged on). The judged models are those the user
+    named that the testbed did not ship (testbed.bench.run.judged); the headline and the exit
+    status speak of them."""
+    judged = data.get("judged") or list(data["leaderboard"])
+    order = judged + [s for s in data["leaderboard"] if s not in judged]
+    lines = []
+    for spec, line in zip(order, verdict_lines(data)):
+        e = data["predictors"][spec]
+        lines.append(line)
+        lines += [f"  {x}" for x in size_lines(e) if not e.get("sizes", {}).get("every_size", True)]
     return all(data["predictors"][s]["good_enough"] for s in judged), lines
 
 
-def _not_covered(data: dict) -> list:
-    rows = [f"{data['predictors'][s]['label']}: {why}" for s in data["leaderboard"]
-            for why in data["predictors"][s].get("not_covered", [])]
-    return [Text("Not covered (the model declares fewer container sizes; judged on what it declares):"),
-            Bullets(tuple(rows))] if rows else []
+def _declared(data: dict) -> list:
+    rows = [x for s in data["leaderboard"] for x in size_lines(data["predictors"][s])]
+    return [Text("Container sizes each model declares (its supported_sizes), and what that leaves out (a model is "
+                 "judged on the poses and scenes of its sizes):"), Bullets(tuple(rows))] if rows else []
 
 
 def sections(data: dict) -> list[Section]:
-    good, lines = headline(data)
-    head = Section(None, [Verdict(good, " | ".join(lines)), *_not_covered(data),
+    good = all(data["predictors"][s]["good_enough"] for s in (data.get("judged") or data["leaderboard"]))
+    head = Section(None, [Verdict(good, " | ".join(verdict_lines(data))), *_declared(data),
                           *([Text(provenance_line(data["provenance"]))] if "provenance" in data else [])], order=0)
     budget = [budget_section(data["yard_budget"], order=3)] if data.get("yard_budget") else []  # after the cost
     return [head, _leaderboard(data), _accuracy(data), _cost(data), *budget, _scenes(data)]

@@ -4,9 +4,17 @@
     data = bench(["improved", "paper", "my_model.onnx"], quick=True, out_dir="reports/bench")
 
 Returns the dict written to bench.json: {"schema", "quick", "seed", "predictors": {spec:
-{"label", "kind", "name", "accuracy", "cost", "in_scene", "closed_loop", "verdict"}},
-"references", "yard_budget" (testbed.bench.yard_budget), "leaderboard": [spec, ...] best first}. Every predictor is loaded first,
-so a bad file fails before anything runs (WeightsError: exit 2 from the CLI).
+{"label", "kind", "name", "sizes" (what it declares and what that excludes: sizes_entry),
+"accuracy", "cost", "in_scene" (figures and testbed.gates.in_scene's gates per scene),
+"closed_loop", "verdict"}}, "references", "yard_budget" (testbed.bench.yard_budget),
+"leaderboard": [spec, ...] best first}. Every predictor is resolved once (testbed.bench.model:
+loaded, its declared sizes read) before anything runs, so a bad file fails first (WeightsError:
+exit 2 from the CLI), and that one BenchModel is what every section takes.
+
+A model that declares fewer container sizes (`supported_sizes`) is judged within them: its
+accuracy sets are drawn over its own container types' pairs (as many poses), and the scenes it
+runs are the listed ones it covers plus, in place of the others, the shipped scenes it covers
+(testbed.bench.scenes.choose); the first screen says what was left out and why.
 """
 
 from __future__ import annotations
@@ -16,29 +24,43 @@ from pathlib import Path
 
 import numpy as np
 
-from learned_contact.interface import SIZE_TOLERANCE
-from learned_contact.sources import SHIPPED_NAMES, label, load_predictor
+from learned_contact.data.sampling import DEFAULT_TYPES
+from learned_contact.sources import SHIPPED_NAMES, label
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
+from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
 from testbed.bench.report import write_bench
-from testbed.bench.scenes import CLOSED_SCENES, OPEN_SCENES, QUICK_CLOSED_SCENES, QUICK_OPEN_SCENES, closed_loop, open_loop
+from testbed.bench.scenes import (
+    CLOSED_SCENES,
+    OPEN_SCENES,
+    QUICK_CLOSED_SCENES,
+    QUICK_LEAST_CLOSED,
+    QUICK_LEAST_OPEN,
+    QUICK_OPEN_SCENES,
+    choose,
+    closed_loop,
+    open_loop,
+    pool,
+)
 from testbed.bench.yard_budget import BudgetSettings, yard_budget
 from testbed.errors import TestbedError
 from testbed.gates import is_known_limit
 from testbed.provenance import provenance
-from testbed.scenario import load_scenario
 
 SCHEMA = "testbed.bench/1"
 DEFAULT_PREDICTORS = SHIPPED_NAMES
 # Poses per held-out set: the gates' 400 in both modes (their thresholds are set for it; labelling
-# the five sets costs ~8 s on 2 cores), so a quick bench judges accuracy exactly as a full one.
+# the five sets costs ~8 s on 2 cores), so a quick bench judges accuracy exactly as a full one. A
+# model declaring fewer container sizes gets as many, drawn over its own types (bench.accuracy).
 N_POSES = 400
 
 
 def known_limits(entry: dict) -> list[str]:
     """The gates this predictor passes only within a pinned known-limit band (accuracy
-    gates by name, closed-loop ones as 'scene: gate'): targets it does not meet."""
+    gates by name, in-scene and closed-loop ones as 'scene: gate'): targets it does not meet."""
     out = [g["name"] for g in entry["accuracy"]["gates"] if g["passed"] and is_known_limit(g)]
+    out += [f"{s}: {g['name']}" for s, f in entry.get("in_scene", {}).items() for g in f.get("gates", [])
+            if g["passed"] and is_known_limit(g)]
     return out + [f"{s}: {g['name']}" for s, f in entry["closed_loop"].items() for g in f["gates"]
                   if g["passed"] and is_known_limit(g)]
 
@@ -52,38 +74,58 @@ def judged(specs) -> list[str]:
 
 def uncovered(predictor, scene: str) -> str | None:
     """None, or "SCENE: container 'NAME' (type T, size (x, y, z) m) is not a size the model
-    declares" for the first container of the scene the predictor does not answer."""
-    supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
-    for c in load_scenario(scene).containers:
-        size = np.asarray(c.container_type().size, dtype=float)
-        if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE:
-            return (f"{scene}: container '{c.name}' (type {c.type}, size {tuple(round(float(v), 3) for v in size)} m) "
-                    "is not a size the model declares")
-    return None
+    declares" for the first container of the scene the predictor (or BenchModel) does not answer."""
+    if isinstance(predictor, BenchModel):
+        return predictor.uncovered(scene)
+    return _uncovered(np.asarray(predictor.supported_sizes, dtype=float), scene)
 
 
-def _uncovered_sets(acc: dict) -> list[str]:
-    return [f"accuracy set {name}: {kept} of {of} poses have sizes the model declares" + ("" if kept else " (not judged)")
-            for name, (kept, of) in acc["coverage"].items() if kept < of]
+def sizes_entry(model: BenchModel, open_choice, closed_choice) -> dict:
+    """What the model declares and what that excludes (bench.json's per-predictor "sizes"): the
+    declared sizes [m] and their shipped types, whether they are every shipped type, the pose sets'
+    type pairs, and per scene section the listed scenes skipped (why) and those run in their place."""
+    pairs = [f"{a}/{b}" for a in model.types for b in model.types]
+    every = [f"{a}/{b}" for a in DEFAULT_TYPES for b in DEFAULT_TYPES]
+    return {"declared": model.declared_sizes.tolist(), "text": model.sizes_text(), "types": list(model.types),
+            "every_size": model.every_size, "accuracy_pairs": pairs, "accuracy_pairs_of": len(every),
+            "in_scene": {"skipped": open_choice[1], "added": open_choice[2]},
+            "closed_loop": {"skipped": closed_choice[1], "added": closed_choice[2]}}
+
+
+def _within_sizes(entry: dict) -> str:
+    """'; judged within its declared sizes (...)' for a model that declares fewer sizes, else ''."""
+    z = entry.get("sizes")
+    if not z or z["every_size"]:
+        return ""
+    skipped = len(z["in_scene"]["skipped"]) + len(z["closed_loop"]["skipped"])
+    added = list(dict.fromkeys(z["in_scene"]["added"] + z["closed_loop"]["added"]))
+    return (f"; judged within its declared sizes ({', '.join(z['types']) or 'no shipped type'}: accuracy poses of "
+            f"{len(z['accuracy_pairs'])} of {z['accuracy_pairs_of']} type pairs, {skipped} listed scenes skipped"
+            + (f", run instead: {', '.join(added)}" if added else "") + ")")
 
 
 def _verdict(entry: dict) -> tuple[bool, str]:
-    """(good enough, one line): every accuracy gate and every closed-loop scene's gates pass;
-    'within known limits' when some pass only within their pinned bands (targets not met). The
-    cost ratios are of the full call; for a model the testbed did not ship its own call's follow."""
+    """(good enough, one line): every accuracy gate, every in-scene gate and every closed-loop
+    scene's gates pass; 'within known limits' when some pass only within their pinned bands
+    (targets not met). The cost ratios are of the full call; for a model the testbed did not ship
+    its own call's follow."""
     acc, closed = entry["accuracy"], entry["closed_loop"]
     held = [s for s, f in closed.items() if f["passed"]]
     failed = [s for s, f in closed.items() if not f["passed"]]
+    in_scene = entry.get("in_scene", {})  # (absent from an entry made before the in-scene gates)
+    scene_gates = [g for f in in_scene.values() for g in f.get("gates", [])]
+    scene_failed = [s for s, f in in_scene.items() if not f.get("passed", True)]
     cost = entry["cost"]
-    good = acc["gates_passed"] == acc["gates_total"] and not failed
+    good = acc["gates_passed"] == acc["gates_total"] and not failed and not scene_failed
     limits = known_limits(entry)
     good = good and acc["gates_total"] > 0 and bool(closed)  # nothing judged is not good enough
     word = ("GOOD ENOUGH" + (f" WITHIN {len(limits)} KNOWN LIMITS" if limits else "")) if good else "NOT GOOD ENOUGH"
     return good, (f"{word}: accuracy gates {acc['gates_passed']} of "
-                  f"{acc['gates_total']} passed, closed loop {len(held)} of {len(closed)} scenes within gates"
+                  f"{acc['gates_total']} passed, in-scene gates {sum(g['passed'] for g in scene_gates)} of "
+                  f"{len(scene_gates)} passed" + (f" (fails {', '.join(scene_failed)})" if scene_failed else "")
+                  + f", closed loop {len(held)} of {len(closed)} scenes within gates"
                   + (f" (fails {', '.join(failed)})" if failed else "")
-                  + (f"; not covered: {len(entry['not_covered'])} (the model declares fewer container sizes)"
-                     if entry.get("not_covered") else "")
+                  + _within_sizes(entry)
                   + (f"; targets not met, held only within pinned bands: {', '.join(limits)}" if good and limits else "")
                   + f", {cost['batched_vs_drake_point']:.2g}x Drake point-pair's cost per pair batched, "
                   f"{cost['single_vs_drake_point']:.2g}x one pair per call"
@@ -97,7 +139,19 @@ def _score(entry: dict) -> tuple:
     passed, stacking point median, then batched cost."""
     acc = entry["accuracy"]
     return (not entry["good_enough"], len(entry["known_limits"]), -sum(f["passed"] for f in entry["closed_loop"].values()),
-            -acc["gates_passed"], acc["sets"]["stacking"]["point_median_m"], entry["cost"]["batched_s_per_pair"])
+            -acc["gates_passed"], acc["sets"].get("stacking", {}).get("point_median_m", float("inf")),
+            entry["cost"]["batched_s_per_pair"])
+
+
+def _sets_per_types(models, seed: int, n: int, workers: int, say) -> dict:
+    """{types: pose_sets} for every distinct tuple of declared types (the full sets always: the
+    cost section's reference poses)."""
+    out = {}
+    for types in dict.fromkeys([tuple(DEFAULT_TYPES), *(m.types for m in models if m.types)]):
+        say(f"labelling held-out poses ({n} per set) with Drake" + ("" if types == tuple(DEFAULT_TYPES) else
+                                                                      f", container types {', '.join(types)} only"))
+        out[types] = pose_sets(seed, n, workers=workers, types=types)
+    return out
 
 
 def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: int = 0, workers: int = 2,
@@ -109,47 +163,40 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     if len(set(labels)) != len(labels):
         raise TestbedError(f"predictors {specs}: two have the same label {labels}; give them distinct file names")
     say = (lambda msg: print(f"bench: {msg}", flush=True)) if progress else (lambda msg: None)
-    loaded = {s: load_predictor(s) for s in specs}  # every model checked before anything runs
+    models = [resolve(s) for s in specs]  # every model loaded (and checked) once, before anything runs
     t0 = time.perf_counter()
     n = N_POSES
-    say(f"labelling held-out poses ({n} per set) with Drake")
-    data = pose_sets(seed, n, workers=workers)
-    entries = {}
-    for s in specs:
-        say(f"accuracy: {s}")
-        entries[s] = {"label": label(s), "kind": getattr(loaded[s], "kind", "?"),
-                      "name": getattr(loaded[s], "name", label(s)), "accuracy": accuracy(loaded[s], data, seed)}
+    sets = _sets_per_types(models, seed, n, workers, say)
+    open_list, closed_list = (QUICK_OPEN_SCENES, QUICK_CLOSED_SCENES) if quick else (OPEN_SCENES, CLOSED_SCENES)
+    least_open, least_closed = (QUICK_LEAST_OPEN, QUICK_LEAST_CLOSED) if quick else (None, None)
+    open_pool, closed_pool = pool(OPEN_SCENES), pool(CLOSED_SCENES)
+    entries, chosen = {}, {}
+    for m in models:
+        say(f"accuracy: {m.spec}")
+        chosen[m.spec] = (choose(m, open_list, open_pool, least_open), choose(m, closed_list, closed_pool, least_closed))
+        entries[m.spec] = {"label": m.label, "kind": m.kind, "name": m.name, "sizes": sizes_entry(m, *chosen[m.spec]),
+                           "accuracy": accuracy(m, sets.get(m.types, {}), seed)}
     say("cost per query (side by side, one process)")
-    costs = cost_table(specs, data, repeats=2 if quick else 3)
-    for s in specs:
-        entries[s]["cost"] = costs["predictors"][s]
+    costs = cost_table(models, sets[tuple(DEFAULT_TYPES)], repeats=2 if quick else 3)
+    for m in models:
+        entries[m.spec]["cost"] = costs["predictors"][m.spec]
     say("yard budget: pairs per 1 ms step beside the host engine's own step (96-container yard)")
-    budget = yard_budget(specs, BudgetSettings(repeats=2 if quick else 3))
-    for s in specs:
-        entries[s]["in_scene"], entries[s]["not_covered"] = {}, _uncovered_sets(entries[s]["accuracy"])
-        for scene, duration in (QUICK_OPEN_SCENES if quick else OPEN_SCENES):
-            missing = uncovered(loaded[s], scene)
-            if missing:
-                entries[s]["not_covered"].append(missing)
-                continue
-            say(f"in-scene (open loop): {s} on {scene}")
-            entries[s]["in_scene"][scene] = open_loop(s, scene, duration)
-    for s in specs:
-        entries[s]["closed_loop"] = {}
-    for scene, duration in (QUICK_CLOSED_SCENES if quick else CLOSED_SCENES):
-        able = []
-        for s in specs:
-            missing = uncovered(loaded[s], scene)
-            if missing:
-                entries[s]["not_covered"].append(f"closed loop: {missing}")
-            else:
-                able.append(s)
-        if not able:
-            continue
+    budget = yard_budget(models, BudgetSettings(repeats=2 if quick else 3))
+    for m in models:
+        entries[m.spec]["in_scene"] = {}
+        for scene, duration in chosen[m.spec][0][0]:
+            say(f"in-scene (open loop): {m.spec} on {scene}")
+            entries[m.spec]["in_scene"][scene] = open_loop(m, scene, duration)
+        entries[m.spec]["closed_loop"] = {}
+    runs: dict = {}  # (scene, duration) -> the models that run it, in the order chosen
+    for m in models:
+        for scene_duration in chosen[m.spec][1][0]:
+            runs.setdefault(scene_duration, []).append(m)
+    for (scene, duration), able in runs.items():
         say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
         result = closed_loop(able, scene, duration)
-        for s in able:
-            entries[s]["closed_loop"][scene] = {**result["predictors"][s], "duration_s": result["duration_s"]}
+        for m in able:
+            entries[m.spec]["closed_loop"][scene] = {**result["predictors"][m.spec], "duration_s": result["duration_s"]}
     for s in specs:
         entries[s]["good_enough"], entries[s]["verdict"] = _verdict(entries[s])
         entries[s]["known_limits"] = known_limits(entries[s])
@@ -158,6 +205,5 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
            "references": costs["references"], "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
            "provenance": provenance(), "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
-
         write_bench(Path(out_dir), out)
     return out

@@ -1,4 +1,4 @@
-"""The bench's yard budget (issue 29): how many container pairs each predictor answers within
+"""The bench's yard budget: how many container pairs each predictor answers within
 one real-time step, beside the host engine's own step.
 
 A crane simulator's loop steps every h = 1 ms. That step holds the host engine's own step
@@ -35,7 +35,7 @@ import time
 
 import numpy as np
 
-from learned_contact.sources import label, load_predictor
+from testbed.bench.model import resolve
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
 from testbed.geometry.rotations import rotation_from_rpy
@@ -150,31 +150,31 @@ class BudgetSettings:
     host: dict | None = None
 
 
-def yard_budget(specs, settings: BudgetSettings = BudgetSettings()) -> dict:
+def yard_budget(models, settings: BudgetSettings = BudgetSettings()) -> dict:
     """{'step_s', 'host' (host_step's dict), 'predictors': {spec: {'label', 'batch_sizes',
     'call_s' (per size), 'fixed_s', 'per_pair_s', 'pairs_within_step', 'pairs_beside_loop'} or,
-    when its calls failed, {'label', 'why'}}} for each predictor in `specs` (learned_contact.sources
-    strings), measured side by side. The figures are of the full predict call; for a model the
+    when its calls failed, {'label', 'why'}}} for each of `models` (BenchModels or learned_contact.sources
+    strings; keyed by spec), measured side by side. The figures are of the full predict call; for a model the
     testbed did not ship the same five of its own call alone follow, prefixed 'model_'
     ('model_pairs_within_step': what the model itself leaves room for, without the testbed's
     wrapper)."""
     host = settings.host if settings.host is not None else host_step(settings.host_size, step_s=settings.step_s)
     out = {}
-    for spec in specs:
-        pred = load_predictor(spec)
+    for m in map(resolve, models):
+        spec, pred, label = m.spec, m.predictor, m.label
         type_name = "1AA"
-        supported = np.asarray(pred.supported_sizes, float).reshape(-1, 3)
+        supported = m.declared_sizes
         if np.abs(supported - np.asarray(CONTAINER_TYPES[type_name].size)).max(axis=1).min() > 1e-3:
             type_name = next((n for n, t in CONTAINER_TYPES.items()
                               if np.abs(supported - np.asarray(t.size)).max(axis=1).min() <= 1e-3), type_name)
         try:
             timed = side_by_side_costs(pred, settings.batch_sizes, settings.repeats, type_name)
         except Exception as e:  # noqa: BLE001 - a model that cannot answer these poses: a row that says so
-            out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
+            out[spec] = {"label": label, "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
                          "why": f"{type(e).__name__}: {(str(e).strip().splitlines() or [''])[0][:200]}"}
             continue
         spare = settings.step_s - host["host_step_s"]
-        out[spec] = {"label": label(spec), "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
+        out[spec] = {"label": label, "batch_sizes": list(settings.batch_sizes), "container_type": type_name,
                      **_budget(timed["call_s"], settings.batch_sizes, spare, host["learned_system_s"])}
         if timed["model_call_s"] is not None:  # the model's own call, beside the full one
             own = _budget(timed["model_call_s"], settings.batch_sizes, spare, host["learned_system_s"])

@@ -1,4 +1,4 @@
-"""Yard blocks in a scene (issue 29): rows x bays x tiers of one container type in a few lines.
+"""Yard blocks in a scene: rows x bays x tiers of one container type in a few lines.
 
 A scene's `yards:` list lays out blocks that the loader expands into ordinary containers
 (testbed.scenario.validate_scenario appends them to `containers:` and empties `yards:`), so

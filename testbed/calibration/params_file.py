@@ -1,6 +1,6 @@
 """Cube-toss parameters <-> a scene fragment (params.yaml) that a scene or `--set` can use.
 
-The fragment is an ordinary scene (testbed/scenario.py): the cube is a generic box
+The fragment is an ordinary scene (testbed/scenario/): the cube is a generic box
 (`type: box`, testbed/bodies/boxes.py) resting on a table slab (`ground_surface`) whose top is at
 the fitted height, both carrying the same contact values, as the rollouts had them.
 Loading goes through `load_scenario`, so a params file is checked like any scene.

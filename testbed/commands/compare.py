@@ -11,7 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from learned_contact import sources
-from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.commands import timestamp
 from testbed.engines import candidates
 from testbed.errors import ScenarioError, TestbedError
@@ -32,13 +31,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--set", action="append", metavar="KEY=VALUE",
                         help="override a scene field, as `testbed run --set` (e.g. --set containers[1].mass=5000)")
     parser.add_argument("--no-replay", action="store_true", help="skip the Meshcat ghost replay (replay.html)")
+    parser.add_argument("--no-truth", action="store_true",
+                        help="no Drake run at all: time the candidates alone (wall time per simulated second, how far "
+                             "each ran); nothing is judged (exit 0)")
     engines = candidates()  # the registered engines besides Drake's truth (testbed/engines)
     with_params = [e for e in engines.values() if e.param_sets]
     parser.add_argument("--engine", choices=(*engines, "all"), default="learned",
                         help="what runs beside Drake: the learned closed loop (default), another engine ("
                              f"{', '.join(e.label for e in engines.values() if not e.gated)}), or all: Drake point, "
                              "the learned loop and every other engine in one table against one Drake run at the "
-                             "learned law's modulus (testbed/engines/three_way.py)")
+                             "learned law's modulus (testbed/compare/candidates.py: all_candidates)")
     parser.add_argument("--params", choices=list(dict.fromkeys(p for e in with_params for p in e.param_sets)), default=None,
                         help="the engine's contact parameters (only with --engine "
                              f"{' or '.join(e.name for e in with_params)} or all): "
@@ -49,7 +51,7 @@ def add_arguments(parser) -> None:
 def check_options(args) -> None:
     """Refuses options that do not apply to the chosen engine (TestbedError: exit 2)."""
     chosen = candidates().get(args.engine)
-    if chosen is not None and not chosen.gated and not getattr(chosen, "learned", False) and args.predictor is not None:
+    if chosen is not None and not chosen.gated and not chosen.learned and args.predictor is not None:
         raise TestbedError(f"--predictor does not apply with --engine {args.engine} ({chosen.label} uses its own "
                            "contact, no predictor)")
     if chosen is not None and not chosen.param_sets and args.params is not None:
@@ -63,8 +65,22 @@ def check_options(args) -> None:
         raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
 
 
+def _out_dir(args, scenario, chosen, predictor: str) -> Path:
+    if args.out:
+        return Path(args.out)
+    if chosen is None or chosen.gated:  # the learned loop, alone or with every engine
+        tag = sources.label(predictor) + ("-all" if args.engine == "all" else "")
+    elif chosen.learned:
+        tag = f"{chosen.name}-{sources.label(predictor)}"
+    else:
+        tag = f"{chosen.name}-{args.params or chosen.param_sets[0]}" if chosen.param_sets else chosen.name
+    return Path("reports") / "compare" / f"{scenario.name}-{tag}{'-no-truth' if args.no_truth else ''}-{timestamp()}"
+
+
 def run(args) -> int:
-    from testbed.compare import compare_scene
+    from testbed.compare import compare_candidates
+    from testbed.compare.candidates import predictor_for
+    from testbed.compare.printed import candidate_list
     from testbed.scenario import load_scenario, resolve_scene_path, source_label
     from testbed.validation.compare_verdict import judge
 
@@ -73,38 +89,12 @@ def run(args) -> int:
     scenario = load_scenario(path, overrides=args.set or [])
     source = source_label(path, args.set)
     chosen = candidates().get(args.engine)
-    if chosen is not None and not chosen.gated:  # another engine against Drake: testbed/engines/comparison.py
-        from testbed.engines.comparison import compare_engine, format_engine_figures
-
-        params = args.predictor or args.params or (chosen.param_sets[0] if chosen.param_sets else None)
-        tag = f"{chosen.name}-{sources.label(params) if args.predictor else params}" if params else chosen.name
-        out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{tag}-{timestamp()}"
-        figures = compare_engine(scenario, chosen.name, params=params, out_dir=out, duration=args.duration,
-                                 replay=not args.no_replay, source=source)
-        print(format_engine_figures(figures))
-        print(f"  output: {out}")
-        if getattr(chosen, "learned", False):  # a predictor decides its contact: the closed-loop gates judge it
-            return _judge_learned_engine(figures, out, chosen.name)
-        print(f"verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts "
-              f"{chosen.label} beside it against the same Drake run)")
-        return 0
-    declared = scenario.effects.learned_dynamics
-    predictor = args.predictor or (declared.predictor if declared is not None else sources.DEFAULT)
-    label = sources.label(predictor) + ("-all" if args.engine == "all" else "")
-    out = Path(args.out) if args.out else Path("reports") / "compare" / f"{scenario.name}-{label}-{timestamp()}"
-    verdict = judge
-    if args.engine == "all":  # one Drake reference at one modulus for point, learned, MuJoCo
-        from testbed.engines import three_way
-
-        three_way.check_three_way(scenario)
-        scenario = three_way.at_law_modulus(scenario)
-        params = args.params or "matched"
-
-        def verdict(figures, directory, runs):
-            return {**judge(figures, directory), "three_way": three_way.rows(scenario, figures, runs, params, predictor)}
+    chosen_list = candidate_list(scenario, args.engine, args.predictor, args.params, no_truth=args.no_truth)
+    out = _out_dir(args, scenario, chosen, predictor_for(scenario, args.predictor))
     try:
-        figures = compare_scene(scenario, predictor=args.predictor, out_dir=out, duration=args.duration,
-                                replay=not args.no_replay, source=source, judge=verdict)
+        figures = compare_candidates(scenario, chosen_list, reference=None if args.no_truth else "truth",
+                                     duration=args.duration, contacts=chosen is not None and not chosen.gated,
+                                     out_dir=out, replay=not args.no_replay, source=source, judge=judge, in_scene=True)
     except ScenarioError as e:
         if args.predictor is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
             named = args.predictor in e.problem  # the loaders name the file or module:attribute already
@@ -114,67 +104,13 @@ def run(args) -> int:
     return figures["exit_status"]
 
 
-def _judge_learned_engine(figures: dict, out, name: str) -> int:
-    """Prints the closed-loop gates' verdict on a learned engine's compare run (its series are
-    written as the learned loop's, testbed/engines/comparison.py) and returns the exit status."""
-    import json
-
-    from testbed.records import write_json
-    from testbed.validation.compare_verdict import judge, verdict_lines
-
-    f = {**figures, "simulated_s_learned": figures[f"simulated_s_{name}"],
-         "drift_m_per_min_learned": figures.get(f"drift_m_per_min_{name}"), "learned_error": figures.get(f"{name}_error"),
-         "wall_per_sim_s_learned": figures[f"wall_per_sim_s_{name}"]}
-    f.update(judge(f, out))
-    path = Path(out) / "compare.json"
-    saved = json.loads(path.read_text())
-    saved.update({k: f[k] for k in ("verdict", "exit_status", "gates", "gates_failed", "gates_not_judged",
-                                    "gates_known_limits", "leaves_truth_at_s", "energy_gain_gated_J", "energy_limit_J")})
-    write_json(path, saved)
-    print("\n".join(verdict_lines(f)))
-    return f["exit_status"]
-
-
-def modulus_line(modulus: float, why: str) -> str:
-    """The hydroelastic modulus every mode prints (the figures are against a truth at it)."""
-    return f"  Drake's containers at a hydroelastic modulus of {modulus:.0e} Pa ({why})"
-
-
 def format_figures(f: dict, out=None) -> str:
-    """The lines `testbed compare` prints: what happened, the figures, the output directory
-    `out`, the gates, and last the verdict."""
-    from testbed.compare.costs import breakdown_line
-    from testbed.compare.metrics import error_lines
+    """The lines `testbed compare` prints of compare.json `f` (testbed/compare/printed.py), and
+    last the closed-loop gates and the verdict (testbed/validation/compare_verdict.py)."""
+    from testbed.compare.printed import figure_lines
+    from testbed.compare.run_candidates import NO_REFERENCE
     from testbed.validation.compare_verdict import NOT_JUDGED, headline, verdict_lines
 
-    lines = [f"scene {f['scene']} with the {f['predictor']} predictor in the loop: {headline(f)} "
-             f"({f['simulated_s_learned']:g} of {f['duration_s']:g} s simulated)"]
-    errors = error_lines(f, "learned", f["wall_per_sim_s_learned"])
-    lines += errors[1:] if f["verdict"] == NOT_JUDGED else errors  # no position error "score" for 0 decisions
-    cost = breakdown_line(f.get("cost_learned"))
-    if cost and f["verdict"] != NOT_JUDGED:
-        slower = f.get("speedup_vs_truth", 1.0) < 1.0
-        lines.append(f"  the learned run's wall time{' (not faster than Drake hydroelastic here)' if slower else ''}: {cost}")
-    if f["hydroelastic_modulus_Pa"] == HYDROELASTIC_MODULUS:
-        why = "the shipped containers', in every run of this comparison"
-    else:
-        why = (f"in every run of this comparison, not the shipped {HYDROELASTIC_MODULUS:.0e} Pa: the learned law's "
-               "default, at which it was fitted and judged; the truth is made as soft as the law it is compared with "
-               "(docs/commands.md)")
-    lines.append(modulus_line(f["hydroelastic_modulus_Pa"], why))
-    if f.get("truth_reference") == "continuous":
-        lines.append(f"  the truth: Drake's continuous-time plant (triangle contact surfaces, exact moments; RungeKutta3 at "
-                     f"accuracy {f['truth_accuracy']:g}): this scene's discrete answer depends on the contact mesh "
-                     "(testbed study truth; docs/truth.md)")
-    elif "truth_reference" in f:
-        lines.append("  the truth: Drake's discrete plant as the scene sets it (each contact polygon's force at its "
-                     "centroid; how far that is from a converged answer: testbed study truth)")
-    if "three_way" in f:
-        from testbed.engines.three_way import format_table
-
-        lines += format_table(f["three_way"])
-    if out is not None:
-        lines.append(f"  output: {out}")
-    lines += verdict_lines(f)
-    return "\n".join(lines)
-
+    judged = f["verdict"] not in (None, NO_REFERENCE)
+    lines = figure_lines(f, out, head=headline(f) if judged else "", not_judged=f["verdict"] == NOT_JUDGED)
+    return "\n".join(lines + (verdict_lines(f) if judged else []))

@@ -18,7 +18,8 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from learned_contact.export.onnx_export import agreement, export_onnx
+    from learned_contact.export.onnx_check import agreement
+    from learned_contact.export.onnx_export import export_onnx
     from testbed.errors import TestbedError
 
     if args.probe < 1:

@@ -1,13 +1,21 @@
-"""Twin runs: one scene under Drake's contact and under the learned closed loop.
+"""Comparisons against one reference run: Drake's truth, then candidates (engines, with
+their contact parameters or predictors) from the same initial state.
 
-    from testbed.compare import compare_scene
-    figures = compare_scene("five_stack", predictor="improved", out_dir="out/")
+    from testbed.compare import Candidate, compare_candidates
+    figures = compare_candidates(scenario, [Candidate("learned", predictor="improved"), Candidate.point()],
+                                 out_dir="out/")
 
-runs.py simulates the variants and records their trajectories; metrics.py turns two
-trajectories into the figures of compare.json; artifacts.py writes the time series,
-the divergence plot and the ghost replay. Nothing here imports torch.
+candidates.py names what runs (Candidate); run_candidates.py runs the reference once and
+every candidate, judges the learned ones and writes compare.json; runs.py holds the twin
+run's Drake variants; metrics.py turns two trajectories into the figures; contact_figures.py
+compares contact rows; artifacts.py writes the time series, the divergence plot and the
+ghost replay; printed.py the lines `testbed compare` prints; twin.py keeps compare_scene,
+compare_predictors and compare_engine as wrappers. The closed-loop gates' verdict comes in as
+a `judge` callable (testbed/validation sits above this package). Nothing here imports torch.
 """
 
-from testbed.compare.twin import compare_predictors, compare_scene
+from testbed.compare.candidates import Candidate
+from testbed.compare.run_candidates import compare_candidates
+from testbed.compare.twin import compare_engine, compare_predictors, compare_scene
 
-__all__ = ["compare_predictors", "compare_scene"]
+__all__ = ["Candidate", "compare_candidates", "compare_engine", "compare_predictors", "compare_scene"]

@@ -45,7 +45,7 @@ class ContactEffect(Effect):
     Config = ContactConfig
     role = Role.PHYSICS
     default_on = True
-    translated_by = ("mujoco",)
+    translated_by = ("mujoco", "bullet")
     order = 0
 
     def check(self, effects) -> None:

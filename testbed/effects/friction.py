@@ -24,7 +24,7 @@ class FrictionEffect(Effect):
     Config = FrictionConfig
     role = Role.PHYSICS
     default_on = True
-    translated_by = ("mujoco",)
+    translated_by = ("mujoco", "bullet")
     order = 1
     requires = ("contact",)
 

@@ -109,7 +109,7 @@ class WindEffect(Effect):
     name = "wind"
     Config = WindConfig
     role = Role.PHYSICS
-    translated_by = ("mujoco",)
+    translated_by = ("mujoco", "bullet")
     order = 20
 
     def check(self, effects) -> None:

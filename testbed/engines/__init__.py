@@ -2,12 +2,14 @@
 
 Adding an engine = one package here whose `__init__` registers an Engine subclass with
 `register`. Registered: `drake` (the ground truth: its contact models) and `learned` (the
-learned closed loop, a Drake variant) in drake/, `mujoco` in mujoco/, `mujoco_learned` (MuJoCo
-stepping the bodies, a predictor deciding container contact) in mujoco_learned/. Every package is
-imported on the registry's first use; none imports its simulator's package until it runs.
+learned closed loop, a Drake variant) in drake/, `mujoco` in mujoco/, `bullet` (Bullet, through
+pybullet) in bullet/, `mujoco_learned` (MuJoCo stepping the bodies, a predictor deciding
+container contact) in mujoco_learned/. Every package is imported on the registry's first use;
+none imports its simulator's package until it runs.
 
-Beside the packages: comparison.py (any engine against Drake's truth: `testbed compare
-SCENE --engine NAME` and the engine case kind's row) and three_way.py (`--engine all`).
+Beside the packages: comparison.py (the Drake variants an engine is judged against) and
+three_way.py (the learned law's modulus of `--engine all`). The comparison itself, every
+candidate against one reference run, is testbed/compare/run_candidates.py.
 """
 
 from testbed.engines.base import Engine, EngineRun, UnsupportedSceneError

@@ -16,7 +16,13 @@ a < b, ground = 0), p_W_cop (n, 3) [m], n_W (n, 3) unit a -> b, f_W (n, 3) [N] o
 phi (n,) [m] (negative = penetration). `reference` marks Drake, the ground truth every
 other engine is judged against; `gated` marks the run that the closed-loop gates judge
 (the learned loop); `param_sets` names an engine's contact-parameter sets, first the default;
-`learned` marks an engine whose container contact a predictor decides (mujoco_learned).
+`learned` marks an engine whose container contact a predictor decides (mujoco_learned);
+`drake_hosted` marks Drake's own engines (its contact rows are the truth's own kind).
+
+run's `params` is a contact-parameter set only (one of `param_sets`; Drake's: a contact
+model), `predictor` the learned contact model (a learned_contact.sources spec) of a learned or
+gated engine only: an engine refuses the one it has no use for (ValueError) rather than read
+one as the other.
 """
 
 from __future__ import annotations
@@ -63,6 +69,7 @@ class Engine:
     # a learned predictor decides its container contact (mujoco_learned): compare judges it at the
     # learned law's modulus by the closed-loop gates, and its params name the predictor
     learned: ClassVar[bool] = False
+    drake_hosted: ClassVar[bool] = False  # Drake's own plant steps it (drake, learned)
     # what validate's report says of this engine beside its rows (the report names no engine itself)
     report_note: ClassVar[str] = ""
     # the query study's method that times this engine's own contact query ("" if none): the report's
@@ -80,9 +87,20 @@ class Engine:
         """Raises UnsupportedSceneError when this engine cannot run `scenario`."""
 
     def run(self, scenario, *, duration: float | None = None, record_every: int = 1, params: str | None = None,
-            contacts: bool = False, source: object = "<scenario>") -> EngineRun:
+            predictor: str | None = None, contacts: bool = False, source: object = "<scenario>") -> EngineRun:
         """Simulates `scenario` for `duration` [s] (None: the scene's) from its initial state,
         recording every `record_every` plant steps; `params`: one of `param_sets` (None: the
-        first); `contacts`: also return the contact rows. A run that fails ends early with
-        trajectory.error set (testbed/simulation.py's failure convention)."""
+        first); `predictor`: a learned engine's predictor spec (None: the scene's
+        learned_dynamics predictor if it declares one, else the shipped default); `contacts`:
+        also return the contact rows. A run that fails ends early with trajectory.error set
+        (testbed/simulation.py's failure convention)."""
         raise NotImplementedError
+
+    def refuse_unused(self, params: str | None, predictor: str | None) -> None:
+        """ValueError when `params` is not one of param_sets, or `predictor` is given to an
+        engine that is neither learned nor gated (a caller mixing the two up)."""
+        if params is not None and params not in self.param_sets:
+            raise ValueError(f"engine {self.name}: params {params!r} is not one of its contact-parameter sets "
+                             f"({', '.join(self.param_sets) or 'none'}); a predictor goes in predictor=")
+        if predictor is not None and not (self.learned or self.gated):
+            raise ValueError(f"engine {self.name}: no predictor decides its contact (predictor={predictor!r})")

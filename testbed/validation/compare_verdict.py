@@ -16,12 +16,18 @@ compare.json `verdict`, and the exit status `testbed compare` returns (`exit_sta
               are the same physics and their agreement says nothing of the predictor -> 0
 The resting-drift gate is judged only on the resting scenes run >= MIN_DRIFT_DURATION_S;
 `gates_not_judged` says why it is left out otherwise.
+
+In-scene gates: when the figures carry an "in_scene" entry (testbed.bench.scenes.in_scene_figures:
+the predictor asked at every recorded step of Drake's hydroelastic run of the scene), its gates
+(testbed.gates.in_scene, the ones `testbed bench` and the validation scene case apply) join the
+closed-loop ones: a failed in-scene gate is a FAIL (exit status 3), as a failed closed-loop gate.
 """
 
 from __future__ import annotations
 
 from testbed.gates import format_value
 from testbed.gates.closed_loop import MIN_DRIFT_DURATION_S, RESTING_SCENES, case_result, judge as closed_loop_gates
+from testbed.gates.in_scene import GATE_NAME as IN_SCENE_GATE, in_scene_gates
 
 PASS, FAIL, DIVERGED, NOT_JUDGED = "PASS", "FAIL", "DIVERGED", "NOT JUDGED"
 EXIT_STATUS = {PASS: 0, NOT_JUDGED: 0, FAIL: 3, DIVERGED: 3}  # 3: a gate failed, as `testbed validate`
@@ -34,10 +40,16 @@ def judge(figures: dict, directory, runs=None) -> dict:
     Gate dicts, named without the case prefix), gates_not_judged {gate: why},
     gates_failed [names], gates_known_limits [names of gates that held only within a pinned
     known limit's band], leaves_truth_at_s [s] (first record 2 cm from the truth; None:
-    never), energy_gain_gated_J and energy_limit_J [J]."""
+    never), energy_gain_gated_J and energy_limit_J [J]. When figures carry "in_scene" (the
+    in-scene figures, testbed.gates.in_scene), its gates follow the closed-loop ones."""
     s = case_result(figures["scene"], figures["duration_s"], [("run", figures, directory)])
     gates = closed_loop_gates(s, s["predictors"]["run"], "")
     not_judged = {}
+    if figures.get("in_scene") is not None:
+        scene_gates = in_scene_gates(figures["in_scene"])
+        gates += scene_gates
+        if not scene_gates:
+            not_judged[IN_SCENE_GATE] = "no container pair was asked in Drake's hydroelastic run of the scene"
     if not s["resting"]:
         not_judged["resting drift"] = f"not a scene that ends at rest; those are {', '.join(RESTING_SCENES)}"
     elif s["duration_s"] < MIN_DRIFT_DURATION_S:

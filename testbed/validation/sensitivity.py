@@ -11,7 +11,7 @@ improved predictor, answering predict(p_AB, R_AB, *, size_A, size_B) -> (point_A
 
 `testbed validate` runs SENSITIVITY_CHECK beside the shipped predictors in every closed-loop
 scene (reported, not gated): a scene where it still passes every gate cannot tell a model
-whose every contact point is 5 cm wrong from the shipped one (issue 23: on near-parallel
+whose every contact point is 5 cm wrong from the shipped one (on near-parallel
 faces the loop settles wherever the predicted point sits under the centre of mass).
 """
 

@@ -16,7 +16,15 @@ import math
 from learned_contact import sources
 from testbed.document import Bullets, Section, Text, Verdict, table
 from testbed.engines import alternatives
-from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M, judge as closed_loop_gates
+from testbed.gates.closed_loop import (
+    EXCLUDED,
+    FINAL_ANGLE_TOL_DEG,
+    FINAL_POSITION_TOL_M,
+    FULL_EXTRA,
+    FULL_EXTRA_WHY,
+    MAX_PENETRATION_M,
+    judge as closed_loop_gates,
+)
 from testbed.validation.cases import ok_records, registry
 from testbed.validation.gates import is_known_limit, shown
 from testbed.validation.sensitivity import SENSITIVITY_CHECK
@@ -65,6 +73,9 @@ def head_sections(metrics: dict, records: list[dict]) -> list[Section]:
     if failed:
         blocks.append(Bullets(tuple(failed_line(g) for g in failed)))
     blocks.append(Text(truth_line(records)))
+    coverage = coverage_line(records)
+    if coverage:
+        blocks.append(Text(coverage))
     out = [Section(None, blocks, order=0)]
     rows = candidate_rows(records)
     if rows:
@@ -85,6 +96,30 @@ def head_sections(metrics: dict, records: list[dict]) -> list[Section]:
                  "the gate's own bound (each gate's description in the table of all gates says why):"),
             Bullets(tuple(limit_line(g) for g in limits))], order=2))
     return out
+
+
+def coverage_line(records: list[dict]) -> str | None:
+    """Which scenes the closed loop judged in this run and which shipped scenes with
+    container-container contact it left out, with why (testbed.gates.closed_loop: FULL_EXTRA
+    left to the full suite, EXCLUDED from every suite); None without closed-loop records."""
+    ran = list(dict.fromkeys(r["result"]["scene"] for r in ok_records(records, "closed_loop")))
+    if not ran:
+        return None
+    text = f"The closed loop judged {len(ran)} scene{'s' if len(ran) != 1 else ''} here"
+    left = {s: FULL_EXTRA_WHY[s] for s, _ in FULL_EXTRA if s not in ran}
+    if left:
+        text += "; excluded from this suite, run by the full suite: " + _grouped(left)
+    if EXCLUDED:
+        text += "; in no suite: " + _grouped(EXCLUDED)
+    return text + "."
+
+
+def _grouped(reasons: dict) -> str:
+    """'a, b (why); c (why)': scenes that share a reason named together."""
+    groups: dict = {}
+    for scene, why in reasons.items():
+        groups.setdefault(why, []).append(scene)
+    return "; ".join(f"{', '.join(scenes)} ({why})" for why, scenes in groups.items())
 
 
 def truth_line(records: list[dict]) -> str:

@@ -1,4 +1,4 @@
-"""The one learned contact step (issue 37, part 5): the native core's step (native/src/step.c,
+"""The one learned contact step: the native core's step (native/src/step.c,
 through testbed/effects/learned_dynamics/step.py) answers as the numba kernels it replaced, and
 both hosts (Drake, MuJoCo) get the same wrenches from it.
 

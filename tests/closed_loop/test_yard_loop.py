@@ -62,7 +62,7 @@ def test_side_by_side_stacks_do_not_load_each_other():
 
 
 def _checked(scenario):
-    from testbed.scenario import _CHECKED
+    from testbed.scenario.spec import _CHECKED
 
     return getattr(scenario, _CHECKED)[1]["learned_dynamics"]
 
@@ -162,8 +162,8 @@ def test_a_heavy_load_lands_on_an_empty_box_in_both_hosts(modulus):
     (its damping term 2 h d F / m reached ~10 at the impact force; the build check, on the static
     load, said 1.65); the linearly implicit normal force lands it within the closed-loop gates
     against Drake hydroelastic, at the learned law's 1e8 Pa and at the shipped 1e9 Pa."""
+    from testbed.compare import compare_engine
     from testbed.compare.runs import run_variant, variant
-    from testbed.engines.comparison import compare_engine
     from testbed.gates.closed_loop import FINAL_ANGLE_TOL_DEG, FINAL_POSITION_TOL_M, MAX_PENETRATION_M
 
     scenario = load_scenario(HEAVY_ON_EMPTY, overrides=[f"effects.contact.hydroelastic_modulus={modulus}"])

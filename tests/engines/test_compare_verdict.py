@@ -134,15 +134,23 @@ def test_run_offers_the_close_scene_names(tmp_path):
 
 def test_all_engines_against_one_reference(tmp_path):
     """--engine all: Drake point, the learned loop, MuJoCo and the learned contact hosted in
-    MuJoCo against one Drake run at the learned law's modulus, in compare.json's three_way,
+    MuJoCo against one Drake run at the learned law's modulus, in compare.json's table,
     beside the learned loop's verdict."""
     pytest.importorskip("mujoco")
     code, out, err, f = compare(tmp_path, "two_stack", "--engine", "all", "--duration", "0.1")
     assert code == 0, err
-    three = f["three_way"]
+    from testbed.engines import alternatives
+
+    three = f["table"]
     assert three["hydroelastic_modulus_Pa"] == f["hydroelastic_modulus_Pa"] == 1e8
-    assert [r["model"] for r in three["rows"]] == ["Drake point", "learned (improved)", "MuJoCo (matched)",
-                                                   "MuJoCo + learned (improved)"]
+    rows = {r["model"]: r for r in three["rows"]}
+    assert list(rows) == list(f["candidates"]) and len(rows) == 2 + len(alternatives())
+    assert list(rows)[:2] == ["Drake point", "learned (improved)"]
+    assert {"MuJoCo (matched)", "MuJoCo + learned (improved)"} <= set(rows)
+    # the learned rows are judged by the closed-loop gates, the others are not
+    assert rows["learned (improved)"]["verdict"] == rows["MuJoCo + learned (improved)"]["verdict"] == "PASS"
+    assert rows["Drake point"]["verdict"] is None and rows["MuJoCo (matched)"]["verdict"] is None
+    assert f["candidates"]["MuJoCo + learned (improved)"]["gates_failed"] == []
     learned = three["rows"][1]
     # the same truth run as the gated twin run: its position errors are the same numbers
     assert learned["final_position_error_max_m"] == f["final_position_error_max_m"]

@@ -14,17 +14,17 @@ from testbed.scenario import load_scenario
 from testbed.simulation import advance
 
 
-def test_the_registry_holds_drake_the_learned_loop_and_mujoco():
-    assert list(engines()) == ["drake", "learned", "mujoco", "mujoco_learned"]
+def test_the_registry_holds_drake_the_learned_loop_mujoco_and_bullet():
+    assert list(engines()) == ["drake", "learned", "mujoco", "bullet", "mujoco_learned"]
     assert [n for n, e in engines().items() if e.reference] == ["drake"]
     assert [n for n, e in engines().items() if e.gated] == ["learned"]
     assert [n for n, e in engines().items() if e.learned] == ["mujoco_learned"]
-    assert list(candidates()) == ["learned", "mujoco", "mujoco_learned"]
-    assert [e.name for e in alternatives()] == ["mujoco", "mujoco_learned"]
+    assert list(candidates()) == ["learned", "mujoco", "bullet", "mujoco_learned"]
+    assert [e.name for e in alternatives()] == ["mujoco", "bullet", "mujoco_learned"]
     assert engine("mujoco").param_sets == ("matched", "default")
     with pytest.raises(UnknownChoiceError,
-                       match="unknown engine 'bullet'; expected one of: drake, learned, mujoco, mujoco_learned"):
-        engine("bullet")
+                       match="unknown engine 'physx'; expected one of: drake, learned, mujoco, bullet, mujoco_learned"):
+        engine("physx")
 
 
 def test_an_unsupported_scene_is_a_scenario_error_naming_scene_and_field():
@@ -114,10 +114,11 @@ def test_an_engine_is_one_registration(tmp_path):
                      "--out", str(out)]) == 0
         figures = json.loads((out / "compare.json").read_text())
         assert figures["engine"] == "stand_in" and figures["params"] is None
-        for key in ("simulated_s_stand_in", "wall_per_sim_s_stand_in", "contact_rows_missing_stand_in",
-                    "stand_in_max_penetration_m", "speedup_vs_truth"):
+        assert figures["candidates"]["Stand-in"]["engine"] == "stand_in"
+        for key in ("simulated_s_learned", "wall_per_sim_s_learned", "contact_rows_missing",
+                    "contact_rows_max_penetration_m", "speedup_vs_truth"):
             assert key in figures, key
-        assert figures["simulated_s_stand_in"] == pytest.approx(0.05)
+        assert figures["simulated_s_learned"] == pytest.approx(0.05)
         # Drake point against Drake hydroelastic, 0.05 s of a resting stack: within 2 mm
         # (measured 1.1 mm at 0.3 s, compare --engine all on two_stack)
         assert figures["position_error_max_m"] < 2e-3

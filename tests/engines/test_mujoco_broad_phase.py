@@ -1,4 +1,4 @@
-"""MuJoCo as a peer at yard scale (issue 29): explicit <pair>s only for the container pairs that
+"""MuJoCo as a peer at yard scale: explicit <pair>s only for the container pairs that
 can meet, the rest found by MuJoCo's own broad phase; the matched parameters still reach every
 contact (testbed/engines/mujoco/model.py, contact_pairs / geom_parameters)."""
 

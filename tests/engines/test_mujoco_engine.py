@@ -201,9 +201,12 @@ def test_learned_dynamics_scene_is_reported_unsupported(capsys, tmp_path):
     from testbed.scenario import dump_scenario
 
     scene.write_text(dump_scenario(scenario))
-    assert main(["compare", str(scene), "--engine", "mujoco", "--out", str(tmp_path / "x")]) == 2
-    assert "effects.learned_dynamics is not supported by the MuJoCo engine" in capsys.readouterr().err
-    assert not (tmp_path / "x").exists()  # nothing simulated or written
+    # compare runs every candidate that no predictor decides on the scene's dynamics without the
+    # learned loop (as its Drake truth): MuJoCo runs beside Drake, not refused
+    out = tmp_path / "x"
+    assert main(["compare", str(scene), "--engine", "mujoco", "--duration", "0.02", "--no-replay", "--out", str(out)]) == 0
+    figures = json.loads((out / "compare.json").read_text())
+    assert figures["engine"] == "mujoco" and figures["simulated_s_learned"] == pytest.approx(0.02)
 
 
 def test_crane_lands_and_releases():
@@ -250,34 +253,38 @@ def test_missing_mujoco_gives_the_install_command(monkeypatch):
 
 def test_compare_engine_mujoco_writes_the_learned_compare_keys(tmp_path):
     """`testbed compare SCENE --engine mujoco` writes every figure the learned compare has
-    (compare_figures, the wall times), MuJoCo's named as MuJoCo (no 'learned' key, no
-    predictor), plus the contact point/normal errors and Drake's modulus."""
+    (compare_figures, the wall times) under the same keys, MuJoCo's as the run under test
+    and under its label in `candidates` (beside Drake point), no predictor, no verdict, plus
+    the contact point/normal errors and Drake's modulus."""
     from testbed.cli import main
+    from testbed.compare.contact_figures import SatDepth
     from testbed.compare.metrics import compare_figures
     from testbed.compare.runs import run_variant, variant
-    from testbed.engines.comparison import SatDepth, keys_for
-
-    MUJOCO_KEYS = keys_for("mujoco")
 
     out = tmp_path / "cmp"
     assert main(["compare", "two_stack", "--engine", "mujoco", "--duration", "0.05", "--no-replay", "--out", str(out)]) == 0
     figures = json.loads((out / "compare.json").read_text())
     scenario = load_scenario("two_stack")
     truth = run_variant(variant(scenario, "truth"), 0.02, 10)
-    learned_keys = {MUJOCO_KEYS.get(k, k) for k in compare_figures(truth, truth, scenario.containers, SatDepth())}
+    learned_keys = set(compare_figures(truth, truth, scenario.containers, SatDepth()))
     learned_keys |= {"scene", "duration_s", "time_step_s", "record_period_s", "wall_per_sim_s_truth",
-                     "wall_per_sim_s_mujoco", "wall_per_sim_s_point", "speedup_vs_truth", "speedup_vs_point"}
+                     "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth", "speedup_vs_point"}
     assert learned_keys <= set(figures)
-    assert not [k for k in figures if "learned" in k] and "predictor" not in figures
+    assert figures["engine"] == "mujoco" and figures["params"] == "matched" and "predictor" not in figures
+    assert figures["verdict"] is None and figures["exit_status"] == 0
+    assert list(figures["candidates"]) == ["MuJoCo (matched)", "Drake point"]
+    mine = figures["candidates"]["MuJoCo (matched)"]
+    assert all(figures[k] == mine[k] for k in learned_keys - {"scene", "duration_s", "time_step_s", "record_period_s"})
     assert figures["hydroelastic_modulus_Pa"] == HYDROELASTIC_MODULUS  # the shipped SDF's: two_stack sets none
     with np.load(out / "trajectories.npz") as series:
-        assert "mujoco_p_WB" in series.files and not [k for k in series.files if k.startswith("learned")]
+        assert {"truth_p_WB", "mujoco_p_WB", "point_p_WB"} <= set(series.files)
+        assert not [k for k in series.files if k.startswith("learned")]
     for key in ("contact_point_error_median_m", "contact_point_error_max_m", "contact_normal_error_max_deg",
-                "wall_per_sim_s_mujoco"):
+                "wall_per_sim_s_learned"):
         assert math.isfinite(figures[key])
     assert figures["diverged"] is False
     assert figures["position_error_max_m"] < 1e-3  # 0.05 s of a resting stack: sub-mm apart
-    assert {"trajectories.npz", "divergence.png", "mujoco.xml"} <= {p.name for p in out.iterdir()}
+    assert {"trajectories.npz", "divergence.png", "mujoco.xml", "compare.json"} == {p.name for p in out.iterdir()}
 
 
 def test_generic_box_and_ground_surface_translate():
@@ -323,8 +330,8 @@ def test_sampled_run_has_the_simulation_study_keys():
 def test_jacobian_is_auto_and_the_sparse_path_solves_as_the_dense_one():
     """jacobian="auto" (model.py JACOBIAN, chosen by measurement): every engine-comparison scene
     (nv < 60) keeps the dense path, so its figures do not move; a larger scene takes the sparse
-    one (3.7x faster on the 96-container yard). MuJoCo 4.0.0's sparse Newton factorisation bug
-    (issue 3767) does not show on these scenes: at the same states, the converged sparse
+    one (3.7x faster on the 96-container yard). MuJoCo 4.0.0's sparse Newton factorisation bug (MuJoCo issue 3767)
+    does not show on these scenes: at the same states, the converged sparse
     solution equals the dense one to rounding (README.md, "Solver path", also on 3.17.0)."""
     from testbed.validation.cases.engine import DEFAULT_SCENES, FULL_EXTRA
 

@@ -1,4 +1,4 @@
-"""The learned contact hosted in MuJoCo (testbed/engines/mujoco_learned, issue 29): the Drake-hosted
+"""The learned contact hosted in MuJoCo (testbed/engines/mujoco_learned): the Drake-hosted
 loop's force law on MuJoCo's state, judged by the closed-loop gates against Drake hydroelastic."""
 
 import numpy as np
@@ -16,7 +16,7 @@ from testbed.engines.mujoco_learned.loop import LearnedContact, prepare, simulat
 
 def test_registered_beside_mujoco_and_in_compare_all():
     e = engine("mujoco_learned")
-    assert e.learned and not e.gated and not e.reference and e.param_sets == ("improved",)
+    assert e.learned and not e.gated and not e.reference and e.param_sets == ()  # its predictor is no contact-parameter set
     assert "mujoco_learned" in [a.name for a in alternatives()]  # so `compare --engine all` and validate's engine case run it
 
 
@@ -45,10 +45,10 @@ def test_its_wrenches_are_the_drake_hosted_loops():
 def test_two_stack_within_the_closed_loop_gates_against_drake():
     """compare_engine: judged at the learned law's modulus against Drake hydroelastic; the
     resting stack stays within the closed-loop gates (2 cm, 0.5 deg, 2 cm penetration)."""
-    from testbed.engines.comparison import compare_engine
+    from testbed.compare import compare_engine
 
-    f = compare_engine("two_stack", "mujoco_learned", duration=0.4, with_point=False, bare_truth=False)
-    assert f["hydroelastic_modulus_Pa"] == 1e8 and not f["diverged"]
+    f = compare_engine("two_stack", "mujoco_learned", duration=0.4, with_point=False)
+    assert f["hydroelastic_modulus_Pa"] == 1e8 and not f["diverged"] and f["predictor"] == "improved"
     assert f["final_position_error_max_m"] < 1e-3 and f["final_angle_error_max_deg"] < 0.05
     assert f["max_penetration_m"] < 0.002 and f["pair_steps_learned"] == 400
     assert f["contact_rows_compared"] > 0
@@ -134,7 +134,7 @@ def test_one_wind_law_for_every_engine():
 
 def test_a_blow_up_ends_the_run_with_an_error():
     """A state past MAX_SPEED (here a box launched at 150 m/s) ends the run there, saying so,
-    instead of running on with containers kilometres away. (Issue 29's landing, a 25 t load at
+    instead of running on with containers kilometres away. (The yard landing, a 25 t load at
     1 m/s onto an empty 40 ft box, blew up the explicit law this way; the linearly implicit
     normal force lands it: tests/closed_loop/test_yard_loop.py.)"""
     landing = load_scenario(text="""

@@ -46,7 +46,7 @@ def test_bench_judges_every_predictor_the_same_way(quick_bench, centre_line):
         assert set(e["closed_loop"]) == {"two_stack", "crane_misaligned", "overhang_tip"}
         assert e["cost"]["batched_s_per_pair"] > 0 and e["cost"]["first_call_s"] > 0
         assert e["verdict"].startswith("GOOD ENOUGH" if e["good_enough"] else "NOT GOOD ENOUGH")
-    # the yard budget (issue 29): pairs answered within a 1 ms step beside the host's measured step
+    # the yard budget: pairs answered within a 1 ms step beside the host's measured step
     budget = data["yard_budget"]
     assert set(budget["predictors"]) == set(specs) and budget["host"]["host_step_s"] > 0
     assert all(b.get("pairs_within_step") is not None or b.get("why") for b in budget["predictors"].values())

@@ -1,4 +1,4 @@
-"""The bench's cost of a user's model (issue 37): the model's own call (onnxruntime's session.run
+"""The bench's cost of a user's model: the model's own call (onnxruntime's session.run
 on a prepared feed, the Python object's predict) is timed beside the full predict call in the
 same process, and bench.json, the verdict line, the cost section and the yard budget carry
 both, the wrapper's share being the difference. No figure is asserted: only that the model's

@@ -16,7 +16,8 @@ from learned_contact import compiled, load_predictor
 from learned_contact.data.labels import make_dataset
 from learned_contact.evaluation.gates import GeometricPrior
 from learned_contact.evaluation.metrics import point_normal_errors
-from learned_contact.export.onnx_export import export_onnx, probe_poses
+from learned_contact.export.onnx_check import probe_poses
+from learned_contact.export.onnx_export import export_onnx
 from learned_contact.model.encodings import features, reflect
 from learned_contact.model.expert import R_SLAB, slab_axes, slab_ratio
 from learned_contact.model.quadrature import NORMAL_TILT, POINT_TILT, face_on_face

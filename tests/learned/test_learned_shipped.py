@@ -12,7 +12,7 @@ from learned_contact.data.labels import make_dataset
 from learned_contact.evaluation.metrics import evaluate
 from learned_contact.evaluation.report import render_markdown
 from learned_contact.predictors.improved import SHIPPED_DIR
-from learned_contact.training.train import SEED_TEST, TrainConfig
+from learned_contact.training.config import SEED_TEST, TrainConfig
 
 METRICS = json.loads((SHIPPED_DIR / "metrics.json").read_text())
 

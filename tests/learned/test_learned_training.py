@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
+from learned_contact.training.config import ExpertConfig, TrainConfig
 from learned_contact.training.paper import PaperConfig
-from learned_contact.training.train import ExpertConfig, TrainConfig, train_default
+from learned_contact.training.train import train_default
 
 pytestmark = pytest.mark.torch  # trains with torch (tests/conftest.py: skipped where it is not installed)
 
@@ -40,7 +41,7 @@ def test_the_resting_recipe_adds_resting_poses_to_the_training_pool(tmp_path, mo
     import dataclasses
     import json
 
-    from learned_contact.training.train import RESTING_RECIPE
+    from learned_contact.training.config import RESTING_RECIPE
 
     assert RESTING_RECIPE["n_resting"] > 0 and TrainConfig().n_resting == 0  # the shipped recipe has none
     monkeypatch.setenv("TESTBED_CACHE", str(tmp_path / "cache"))
@@ -57,7 +58,8 @@ def test_refit_expert_keeps_the_main_network_and_takes_the_support_gate(tmp_path
     """training.refit_expert: a new expert on the wider resting sets beside the shipped
     main network, unchanged bit for bit; with gate="support" its bounds are support_domain() and
     it saves as format_version 3."""
-    from learned_contact.training.train import refit_expert, support_domain
+    from learned_contact.training.config import support_domain
+    from learned_contact.training.loop import refit_expert
 
     monkeypatch.setenv("TESTBED_CACHE", str(tmp_path / "cache"))
     shipped = load_predictor(compiled=False)

@@ -1,5 +1,5 @@
 """The per-call bounds on a user's model without a thread per call, and bounds that never count
-the testbed's own work (issue 37, part 3).
+the testbed's own work.
 
 - ONNX: one watchdog thread per process stops a run past --model-call-timeout through
   onnxruntime's terminate flag; a fast run is not stopped; 200 calls start no thread (through

@@ -57,7 +57,8 @@ def _poses(n: int, seed: int):
 def paths(tmp_path_factory):
     out = {"numpy": load_predictor(compiled=False).predict, "compiled": load_predictor().predict}
     try:
-        from learned_contact.export.onnx_export import export_onnx, onnx_session, run_onnx
+        from learned_contact.export.onnx_check import onnx_session, run_onnx
+        from learned_contact.export.onnx_export import export_onnx
     except ImportError:  # pragma: no cover - the test extra installs onnx
         return out
     session = onnx_session(export_onnx("improved", tmp_path_factory.mktemp("sym") / "improved.onnx"))
@@ -156,7 +157,7 @@ def test_mirror_training_rows_are_the_same_poses_in_the_neighbouring_frames():
 
     from learned_contact.data.labels import make_dataset
     from learned_contact.model.encodings import frame_blend
-    from learned_contact.training.train import improved_inputs
+    from learned_contact.training.datasets import improved_inputs
 
     ds = make_dataset("stacking", 60, 20_201, progress=False)
     p = ds.p_AB.copy()

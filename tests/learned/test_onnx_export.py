@@ -18,13 +18,8 @@ pytest.importorskip("onnxruntime")
 
 from learned_contact import WeightsError, load_predictor  # noqa: E402
 from learned_contact.evaluation.gates import OUTSIDE_RANGES  # noqa: E402
-from learned_contact.export.onnx_export import (  # noqa: E402
-    export_onnx,
-    export_torch_model,
-    onnx_session,
-    probe_poses,
-    run_onnx,
-)
+from learned_contact.export.onnx_check import onnx_session, probe_poses, run_onnx  # noqa: E402
+from learned_contact.export.onnx_export import export_onnx, export_torch_model  # noqa: E402
 
 KINDS = ("paper", "improved")
 SEED = 31337  # held-out: the gates use 10 * seed + 5..7 for small seeds, training + 1, + 2

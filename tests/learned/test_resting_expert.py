@@ -10,10 +10,10 @@ import pytest
 from learned_contact import load_predictor
 from learned_contact.data.sampling import RESTING_RANGES
 from learned_contact.errors import WeightsError
-from learned_contact.export.onnx_export import probe_poses
+from learned_contact.export.onnx_check import probe_poses
 from learned_contact.model.encodings import frame_blend, reflect
 from learned_contact.model.expert import R_SLAB, gate, slab_ratio, weights
-from learned_contact.training.train import default_domain
+from learned_contact.training.config import default_domain
 from testbed.geometry.boxes import sat_normal
 from testbed.geometry.rotations import rotation_from_rpy
 
@@ -260,14 +260,14 @@ SIZE_40FT = np.array([12.192, 2.438, 2.591])
 @pytest.fixture(scope="module")
 def support_paths():
     """{path: the shipped networks with the support layout's gate (training.support_domain)}."""
-    from learned_contact.training.train import support_domain
+    from learned_contact.training.config import support_domain
 
     ref = dataclasses.replace(load_predictor(compiled=False), expert_domain=support_domain())
     return {"numpy": ref, "compiled": ref.with_compiled(True)}
 
 
 def _support_gate(p, R, sA, sB):
-    from learned_contact.training.train import support_domain
+    from learned_contact.training.config import support_domain
 
     sigma = np.where(p >= 0.0, 1.0, -1.0)
     p_c, R_c = reflect(sigma, p, R)
@@ -318,7 +318,7 @@ def test_the_support_gate_is_the_same_in_every_frame_and_trained_where_it_opens(
     g = _support_gate(p, R, sA, sB)
     assert np.mean(g == 1.0) > 0.2 and np.mean((g > 0.0) & (g < 1.0)) > 0.3
     depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
-    from learned_contact.training.train import support_domain
+    from learned_contact.training.config import support_domain
 
     for sigma, _ in frame_blend(p):
         p_c, R_c = reflect(sigma, p, R)
@@ -381,7 +381,8 @@ def test_the_onnx_export_holds_the_support_gate(support_paths, tmp_path):
     tolerances (1e-6 m, 1e-5 deg) where the gate opens, ramps and shuts."""
     pytest.importorskip("onnx")
     pytest.importorskip("onnxruntime")
-    from learned_contact.export.onnx_export import export_onnx, onnx_session, run_onnx
+    from learned_contact.export.onnx_check import onnx_session, run_onnx
+    from learned_contact.export.onnx_export import export_onnx
 
     onnx_path = export_onnx(support_paths["numpy"].save(tmp_path / "v3.npz"), tmp_path / "v3.onnx")
     session = onnx_session(onnx_path)

@@ -1,4 +1,4 @@
-"""The contact-defaults sweep (testbed/studies/defaults.py, `testbed study defaults`).
+"""The contact-defaults sweep (testbed/studies/defaults/judging.py, `testbed study defaults`).
 
 The verdicts are checked on a case whose physics is known: a 20 t box released 2 mm above
 a fixed one ("resting_pair") and left to settle for 1 s. The shipped setting must pass every

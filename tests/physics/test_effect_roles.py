@@ -57,7 +57,7 @@ def test_every_registered_effect_declares_a_role():
         assert isinstance(cls.__dict__.get("role"), Role), name
     # the shipped split: only these change the dynamics
     assert {n for n, c in registry().items() if c.role is Role.PHYSICS} == {
-        "contact", "friction", "wind", "crane", "learned_dynamics"}
+        "contact", "friction", "wind", "crane", "deck_motion", "learned_dynamics"}
 
 
 def test_register_refuses_an_effect_without_a_role():

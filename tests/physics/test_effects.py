@@ -17,6 +17,7 @@ OWN_SYSTEMS = {  # effect -> names of the systems it adds
     "shadow_contact": {"shadow_contact_probe"},
     "wind": {"wind_load"},
     "crane": {"crane"},
+    "deck_motion": {"deck_loads"},
 }
 DECLARE = {  # effect -> the --set that declares it on the defaults scene (default: {})
     "crane": "effects.crane={container: box, trolley_height: 10.0}",

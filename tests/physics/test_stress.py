@@ -1,4 +1,4 @@
-"""Stress suite: hard cases stay numerically stable (testbed/studies/stability.py).
+"""Stress suite: hard cases stay numerically stable (testbed/studies/stability/matrix.py).
 
 Every entry of the stability grid is a test: near-parallel landings (tilt 1e-5 to
 1e-1 rad), edge-on-edge and corner-on-face landings, mass ratios 15:1 and 1000:1, a

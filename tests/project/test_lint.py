@@ -38,24 +38,27 @@ PROJECT = ("testbed", "learned_contact")
 _CLI = "called only by the command's `run`: the CLI's start-up stays light"
 _DRAKE = "keeps Drake (pydrake) out of a module that imports without it"
 _ENGINE = "an engine's registration stays light: the CLI's parser lists the engines; its simulator loads when it runs"
+_STUDY = "a study's registration stays light: the CLI's parser lists the studies and their options; its code loads when it runs"
 ALLOWED = {  # (file, function) -> why its imports of project modules stay inside it
+    ("testbed/studies/sim/__init__.py", "_code"): _STUDY,
+    ("testbed/studies/stability/__init__.py", "_code"): _STUDY,
+    ("testbed/studies/defaults/__init__.py", "_code"): _STUDY,
+    ("testbed/studies/scale/__init__.py", "_code"): _STUDY,
+    ("testbed/studies/truth/__init__.py", "_code"): _STUDY,
     ("testbed/engines/drake/__init__.py", "run"): _ENGINE,
+    ("testbed/engines/bullet/__init__.py", "unavailable"): _ENGINE,
+    ("testbed/engines/bullet/__init__.py", "version"): _ENGINE,
+    ("testbed/engines/bullet/__init__.py", "check"): _ENGINE,
+    ("testbed/engines/bullet/__init__.py", "run"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "unavailable"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "version"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "check"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "run"): _ENGINE,
     ("testbed/commands/compare.py", "format_figures"): _CLI,
-    ("testbed/commands/compare.py", "_judge_learned_engine"): _CLI,
     ("testbed/engines/mujoco_learned/__init__.py", "unavailable"): _ENGINE,
     ("testbed/engines/mujoco_learned/__init__.py", "version"): _ENGINE,
     ("testbed/engines/mujoco_learned/__init__.py", "check"): _ENGINE,
     ("testbed/engines/mujoco_learned/__init__.py", "run"): _ENGINE,
-    ("testbed/commands/study.py", "_stability"): _CLI,
-    ("testbed/commands/study.py", "_query"): _CLI,
-    ("testbed/commands/study.py", "_sim"): _CLI,
-    ("testbed/commands/study.py", "_defaults"): _CLI,
-    ("testbed/commands/study.py", "_scale"): _CLI,
-    ("testbed/commands/study.py", "_truth"): _CLI,
     ("testbed/commands/view.py", "view"): _CLI,
     ("testbed/studies/__init__.py", "__getattr__"): "lazy package attribute (PEP 562): the query study on first use",
     ("testbed/effects/learned_dynamics/force_law.py", "fit_pressure_stiffness"):

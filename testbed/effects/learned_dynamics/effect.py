@@ -52,7 +52,7 @@ from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
 from testbed.effects.learned_dynamics.force_law import law_modulus, pressure_stiffness, stability_numbers
-from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_drake
+from testbed.effects.learned_dynamics.step import NEAR, ContactStep, SleepingConfig, bodies_from_drake
 from testbed.effects.learned_dynamics.truth import ClosedLoopRecords, ShadowTruth, summarize_truth
 from testbed.errors import ScenarioError
 
@@ -76,6 +76,8 @@ class LearnedDynamicsConfig:
     normal_sweeps: int = 4  # projected Gauss-Seidel sweeps of the linearly implicit normal force per step
     shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
     truth_every_steps: int = 20  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
+    # settled islands reuse their last predictor answers (step.SleepingConfig: thresholds and why)
+    sleeping: SleepingConfig = dataclasses.field(default_factory=SleepingConfig)
 
 
 def load_named_predictor(name: str):
@@ -165,10 +167,13 @@ class LearnedDynamics(LeafSystem):
         (the predictor's call included) and the anchors' update, predict_s in the predictor's
         call, record_s in the records (shadow truth included); calc_calls, predict_calls: how
         many of each; predict_pairs: the container pairs the predictor was asked about, summed
-        over its calls (pair-steps: 0 when the model made no contact decision)."""
+        over its calls (pair-steps: 0 when the model made no contact decision); reused_pairs,
+        bodies_asleep: pair-steps answered from an asleep island's last answers, body-steps
+        asleep (config.sleeping)."""
         c, s = self._cost, self._step.costs()
         return {"calc_s": float(c[0]), "predict_s": s["predict_s"], "record_s": float(c[2]),
-                "calc_calls": int(c[3]), "predict_calls": s["predict_calls"], "predict_pairs": s["predict_pairs"]}
+                "calc_calls": int(c[3]), "predict_calls": s["predict_calls"], "predict_pairs": s["predict_pairs"],
+                "reused_pairs": s["reused_pairs"], "bodies_asleep": s["bodies_asleep"]}
 
     def touching(self, container: int) -> bool:
         """Whether container (scene index) was in learned contact at the latest computed step."""
@@ -271,6 +276,10 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("normal_sweeps", f"expected a whole number >= 1, got {c.normal_sweeps}")
         if not (isinstance(c.grid, int) and c.grid >= 1):
             raise self.fail("grid", f"expected a whole number >= 1, got {c.grid}")
+        for field in ("v_sleep", "w_sleep", "t_sleep", "eps_p", "eps_R"):
+            value = getattr(c.sleeping, field)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise self.fail(f"sleeping.{field}", f"expected a finite non-negative number, got {value!r}")
         if c.mu is not None and not c.mu >= 0:
             raise self.fail("mu", f"expected a non-negative friction coefficient, got {c.mu}")
         if self.scenario.plant.time_step <= 0:

@@ -1,4 +1,4 @@
-"""The learned contact step, one for both hosts (issue 37): the Drake-hosted loop
+"""The learned contact step, one for both hosts: the Drake-hosted loop
 (effect.LearnedDynamics) and the MuJoCo-hosted one (testbed/engines/mujoco_learned/loop.py)
 both call ContactStep.step, which runs the native core's step (native/src/step.c, declared by
 native/include/container_contact_step.h; built into learned_contact._native):
@@ -7,6 +7,12 @@ native/include/container_contact_step.h; built into learned_contact._native):
   world boxes, then bounding spheres and face axes within NEAR) -> the predictor on every
   candidate (one batched call) -> the force law (README.md beside this file) -> wrenches
   (m, 6) [torque about each body origin, force; N m, N; in W] and the pair records.
+
+Sleeping (config.sleeping, a SleepingConfig; container_contact_step.h says the rules): the
+candidates of an island of free bodies that has been at rest for t_sleep are not asked again;
+they reuse their last answers (point_A, normal_A in A's frame) while the force law runs on the
+current poses and velocities, until a body leaves rest or its sleeping pose (eps_p, eps_R), a
+new candidate pair joins the island, or the host wakes it (ContactStep.wake).
 
 The predictor: a compiled predictor whose native model (a learned_contact._native.Model) is
 at hand runs inside the native step (one call, cc_contact_step); any other (the numpy
@@ -22,8 +28,6 @@ and reads the next one out (held=..., then ContactStep.held()).
 There is no pure-Python path: without the compiled core the step raises NativeCoreMissing,
 one line naming it and how to build it.
 """
-
-from __future__ import annotations
 
 import dataclasses
 import time
@@ -93,15 +97,59 @@ class StepPairs:
         return len(self.ia)
 
 
+@dataclasses.dataclass
+class SleepingConfig:
+    """Sleeping islands of the learned step (container_contact_step.h, cc_step_set_sleep): a
+    settled stack's pairs reuse their last predictor answer (point_A, normal_A) while the force
+    law still runs on the current poses and velocities. On by default: with it on, two_stack,
+    five_stack, crane_hard_landing and yard_wind (testbed compare, Drake host) keep their
+    verdicts and every closed-loop gate figure well inside its limit (the largest change:
+    five_stack's resting drift, 5.7e-7 to 2.9e-5 m/min of the 1e-3 limit), and the MuJoCo host's
+    nine_mixed_stack, yard_block and yard_block_landing end within 1 % of the gates' limits of
+    their runs without it (tests/closed_loop/test_sleeping.py). Defaults and why:
+
+    v_sleep [m/s], w_sleep [rad/s]: a body is at rest below both. 1e-3: ten times the force
+      law's slip_speed (1e-4 m/s, where the regularised Coulomb law turns viscous), so a stack
+      creeping under stiction counts as at rest (settled stacks measure 1e-6 m/s and less),
+      while a container on the crane's rope (0.1-1 m/s) or falling for one step
+      (g h = 10 mm/s at h = 1 ms) never does.
+    t_sleep [s]: 0.3: a stack settles by an exponential creep (five_stack: |v| from 1.6e-2 to
+      1e-3 m/s between 0.2 and 0.6 s, a time constant of about 0.15 s), so 0.3 s at rest is
+      two time constants: what creep is left is below v_sleep x 0.15 s = 0.15 mm, about one
+      eps_p (at most one wake), and the wait costs 0.3 s of asked steps per settling.
+    eps_p [m]: 1e-4 (0.1 mm): an island wakes when any point of a body's box has moved this far
+      from where the island fell asleep, so a reused answer was made at a relative pose within
+      2 eps_p (any point) of the current one: the reused normal and a translation-made shift
+      of the point are that close to a fresh answer.
+    eps_R [rad]: 1e-6: the rotation's bound, far below eps_p / (a box's half diagonal), because
+      the contact point of a flat face pair is the pressure centroid, which a relative tilt t
+      moves by t L^2 / (12 d) (face length L, penetration d: 2e4 m/rad for a settled 20 ft
+      stack, L = 6.06 m, d = 0.16 mm): 2 eps_R keeps that under 4 cm there, and the tilt an
+      asleep island may take without the centroid's restoring moment to 2e-6 rad."""
+
+    enabled: bool = True
+    v_sleep: float = 1e-3
+    w_sleep: float = 1e-3
+    t_sleep: float = 0.3
+    eps_p: float = 1e-4
+    eps_R: float = 1e-6
+
+    def as_tuple(self) -> tuple:
+        """(enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R) for the native step."""
+        return (float(bool(self.enabled)), float(self.v_sleep), float(self.w_sleep), float(self.t_sleep),
+                float(self.eps_p), float(self.eps_R))
+
+
 class ContactStep:
     """The learned contact of m bodies (containers), for either host.
 
     size (m, 3) [m] full extents; free (m,) bool; mass (m,) [kg] (inf for a fixed body);
     I_Bo (m, 3, 3) [kg m^2] rotational inertia about the body origin in the body frame;
     type_index (m,) each body's row of kappa_by_type (T, T) [Pa/m]; config: the effect's
-    LearnedDynamicsConfig (dissipation, stick, slip, stiction, torsion, grid, sweeps); mu [-]
-    the friction coefficient in force; h [s] the host's time step; predictor: any
-    learned_contact predictor. Raises NativeCoreMissing without the compiled core."""
+    LearnedDynamicsConfig (dissipation, stick, slip, stiction, torsion, grid, sweeps, and
+    sleeping: a SleepingConfig, absent = its defaults); mu [-] the friction coefficient in force; h [s]
+    the host's time step; predictor: any learned_contact predictor. Raises NativeCoreMissing
+    without the compiled core."""
 
     def __init__(self, size, free, mass, I_Bo, type_index, kappa_by_type, config, mu: float, h: float, predictor,
                  margin: float = NEAR):
@@ -119,25 +167,43 @@ class ContactStep:
                                      np.ascontiguousarray(type_index, dtype=np.int64),
                                      np.ascontiguousarray(kappa_by_type, dtype=float), self.params)
         self.model = native_model(predictor)  # None: predictor.predict is called on the candidates
+        self.sleeping = getattr(config, "sleeping", None) or SleepingConfig()
+        native.step_set_sleep(self._core, self.sleeping.as_tuple())
         self._seconds = np.zeros(3)
         self.reset_costs()
 
     # ------------------------------------------------------------------ costs
     def reset_costs(self) -> None:
         """Zeroes the cost counters (see costs)."""
-        self.cost = np.zeros(6)  # candidates_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
+        # candidates_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs, reused_pairs,
+        # island_steps, asleep_island_steps, asleep_body_steps
+        self.cost = np.zeros(10)
 
     def costs(self) -> dict:
-        """Wall time [s] since reset_costs of the candidates (broad phase, pair poses), the
-        predictor's call and the force law (records included); steps; predict_calls (steps
-        with candidates); predict_pairs (candidates summed over the calls)."""
+        """Wall time [s] since reset_costs of the candidates (broad phase, pair poses, islands),
+        the predictor's call and the force law (records included); steps; predict_calls (steps
+        that asked the predictor); predict_pairs (pairs asked, summed over the steps);
+        reused_pairs (pairs in asleep islands that reused their last answer, summed);
+        islands, islands_asleep (islands with a candidate pair, and of those asleep, summed
+        over the steps); bodies_asleep (free bodies in asleep islands, summed)."""
         c = self.cost
         return {"candidates_s": float(c[0]), "predict_s": float(c[1]), "law_s": float(c[2]), "steps": int(c[3]),
-                "predict_calls": int(c[4]), "predict_pairs": int(c[5])}
+                "predict_calls": int(c[4]), "predict_pairs": int(c[5]), "reused_pairs": int(c[6]),
+                "islands": int(c[7]), "islands_asleep": int(c[8]), "bodies_asleep": int(c[9])}
+
+    def sleep_counts(self) -> dict:
+        """The latest step's asked, reused (pairs), islands, islands_asleep, bodies_asleep."""
+        names = ("asked", "reused", "islands", "islands_asleep", "bodies_asleep")
+        return dict(zip(names, _native.step_sleep_counts(self._core)))
+
+    def wake(self, bodies) -> None:
+        """Wakes the islands of bodies (indices): the host's external force on them changed
+        (a rope attached or released, a wind ramp); they are asked at the next step."""
+        _native.step_sleep_wake(self._core, np.ascontiguousarray(bodies, dtype=np.int64).reshape(-1))
 
     # ------------------------------------------------------------------ held state
     def forget(self) -> None:
-        """No pair held, no body's last step (as before the first step)."""
+        """No pair held, no body's last step, every body awake (as before the first step)."""
         _native.step_forget(self._core)
 
     def no_history(self) -> tuple:
@@ -153,11 +219,14 @@ class ContactStep:
         return keys, rows, history
 
     def set_held(self, held: tuple | None) -> None:
-        """Replaces the held state with (keys, rows, history) (None: forget)."""
+        """Replaces the held state with (keys, rows, history) (None: forget). A history with no
+        last step (all NaN: a host's first step, a restart) also wakes every body."""
         if held is None:
             self.forget()
             return
         keys, rows, history = held
+        if np.isnan(history).all():
+            _native.step_sleep_reset(self._core)
         _native.step_held_set(self._core, np.ascontiguousarray(keys, dtype=np.int64),
                               np.ascontiguousarray(rows, dtype=float), np.ascontiguousarray(history, dtype=float))
 
@@ -184,22 +253,30 @@ class ContactStep:
         else:
             k = _native.step_candidates(core, p, R)
             pairs = self._read(k, law=False)
+            ask = np.ones(k, np.uint8)
+            n_ask = _native.step_sleep_plan(core, w, v, ask)  # asleep rows: their last answers in the step
+            if n_ask < k:
+                _native.step_read(core, None, None, None, None, None, None, pairs.point_A, pairs.normal_A, None, None,
+                                  None, None, None)
             t1 = time.perf_counter()
-            if k:
-                point_A, normal_A = self.predictor.predict(pairs.p_AB, pairs.R_AB, size_A=self.size[pairs.ia],
-                                                           size_B=self.size[pairs.ib])
-                pairs.point_A = np.ascontiguousarray(point_A, dtype=float).reshape(k, 3)
-                pairs.normal_A = np.ascontiguousarray(normal_A, dtype=float).reshape(k, 3)
+            if n_ask:
+                rows = slice(None) if n_ask == k else ask.astype(bool)
+                point_A, normal_A = self.predictor.predict(pairs.p_AB[rows], pairs.R_AB[rows],
+                                                           size_A=self.size[pairs.ia[rows]],
+                                                           size_B=self.size[pairs.ib[rows]])
+                pairs.point_A[rows] = np.asarray(point_A, dtype=float).reshape(n_ask, 3)
+                pairs.normal_A[rows] = np.asarray(normal_A, dtype=float).reshape(n_ask, 3)
             t2 = time.perf_counter()
             _native.step_force_law(core, w, v, pairs.point_A, pairs.normal_A, wrench)
             _native.step_read(core, None, None, None, None, None, None, None, None, pairs.fn, pairs.f_W, pairs.p_W,
                               pairs.n_W, pairs.area)
             t3 = time.perf_counter()
             self.cost[:3] += (t1 - t0, t2 - t1, t3 - t2)
+        asked, reused, islands, islands_asleep, bodies_asleep = _native.step_sleep_counts(core)
         self.cost[3] += 1
-        if k:
+        if asked:
             self.cost[4] += 1
-            self.cost[5] += k
+        self.cost[5:] += (asked, reused, islands, islands_asleep, bodies_asleep)
         return wrench, pairs
 
     def _read(self, k: int, law: bool = True) -> StepPairs:

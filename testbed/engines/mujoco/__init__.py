@@ -22,7 +22,8 @@ PARAM_SETS = ("matched", "default")  # MuJoCo's contact-parameter sets, the defa
 
 @register
 class MujocoEngine(Engine):
-    """MuJoCo; params: 'matched' (to Drake's hydroelastic contact, the default) or 'default'."""
+    """MuJoCo; params: 'matched' (to Drake's hydroelastic contact, the default) or 'default';
+    no predictor."""
 
     name = "mujoco"
     label = "MuJoCo"
@@ -53,9 +54,11 @@ class MujocoEngine(Engine):
 
         check_supported(scenario)
 
-    def run(self, scenario, *, duration=None, record_every=1, params=None, contacts=False, source="<scenario>"):
+    def run(self, scenario, *, duration=None, record_every=1, params=None, predictor=None, contacts=False,
+            source="<scenario>"):
         from testbed.engines.mujoco.run import simulate_mujoco, trajectory_of
 
+        self.refuse_unused(params, predictor)
         run = simulate_mujoco(scenario, duration=duration, params=params or self.param_sets[0])
         summary = {**run.summary, "version": run.summary["mujoco_version"]}
         return EngineRun(trajectory_of(run, record_every), run.tables["contacts"] if contacts else None, summary,

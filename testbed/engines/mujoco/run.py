@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from testbed.effects.deck_motion import build_law as deck_law
 from testbed.effects.wind import WindLaw
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, mujoco_module
@@ -157,6 +158,8 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
     wind = None if scenario.effects.wind is None else WindLaw(
         scenario.effects.wind, np.array([c.container_type().size for c in free], dtype=float).reshape(-1, 3))
     com_B = np.array([c.com_offset for c in free], dtype=float).reshape(-1, 3)
+    deck = None if scenario.effects.deck_motion is None else deck_law(
+        scenario.effects.deck_motion, scenario, free, np.array(model.opt.gravity, dtype=float))
     reducer = _ContactReducer(model, tr.body_names)
     qpos, qvel, steps_done = [data.qpos[qidx].copy()], [data.qvel[vidx].copy()], 0
     stepping, diverged = 0.0, False
@@ -167,11 +170,13 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
         crane = CraneRopes(scenario.effects.crane, free[j_crane], model, int(body_ids[j_crane]),
                            model.geom(tr.free_names[j_crane]).id, int(qadr[j_crane]), int(vadr[j_crane]))
     for i in range(n_steps):
-        if wind is not None or crane is not None:
+        if wind is not None or crane is not None or deck is not None:
             data.xfrc_applied[:] = 0.0
         if wind is not None:
             R = _rotations(data.qpos[qidx[:, 3:]])  # the current poses (xmat lags one step)
             data.xfrc_applied[body_ids] = wind.mujoco_rows(R, com_B, data.time)  # applied at C, not the COM
+        if deck is not None:  # the deck's inertial loads and twistlocks (testbed/effects/deck_motion.py)
+            data.xfrc_applied[body_ids] += deck.mujoco_rows(data.qpos[qidx], data.qvel[vidx], data.time)
         if crane is not None:
             crane.apply(data, _rotations(data.qpos[qidx[j_crane, 3:]]))
         t0 = time.perf_counter()

@@ -1,5 +1,5 @@
 """The learned contact in a real-time engine: MuJoCo steps the bodies, a predictor decides
-container-container contact (issue 29, deliverable 3).
+container-container contact.
 
 Per step (h = plant.time_step, semi-implicit Euler, MuJoCo's default integrator):
   1. mj_step1: MuJoCo's position and velocity stages at the step's state (poses xpos/xmat,
@@ -47,6 +47,7 @@ import time
 import numpy as np
 
 from testbed import variants
+from testbed.effects.deck_motion import build_law as deck_law
 from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_mujoco, wrench_to_mujoco
 from testbed.effects.wind import WindLaw
 from testbed.engines.base import UnsupportedSceneError
@@ -202,7 +203,7 @@ class LearnedContact:
         # broad_s: the state and the candidates; predict_s: the predictor; law_s: the rest (law, records, xfrc)
         self.costs[:3] += (t1 - t0 + spent[0], spent[1], t2 - t1 - spent[0] - spent[1])
         self.costs[3] += 1
-        self.costs[4:] += spent[4:]
+        self.costs[4:] += spent[4:6]  # predict_calls, predict_pairs (step.costs(): the sleeping counts after)
 
     def rows(self, step: int, t: float, offset: int) -> dict | None:
         """The contact rows of the latest step's touching container pairs (a, b = container
@@ -249,6 +250,8 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     wind = None if s.effects.wind is None else WindLaw(
         s.effects.wind, np.array([c.container_type().size for c in free_specs], dtype=float).reshape(-1, 3))
     com_B = np.array([c.com_offset for c in free_specs], dtype=float).reshape(-1, 3)
+    deck = None if s.effects.deck_motion is None else deck_law(
+        s.effects.deck_motion, s, free_specs, np.array(model.opt.gravity, dtype=float))
     crane = None
     if s.effects.crane is not None:
         j = tr.free_names.index(s.effects.crane.container)
@@ -277,6 +280,8 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         t2 = time.perf_counter()
         if wind is not None:
             data.xfrc_applied[body_ids] += wind.mujoco_rows(data.xmat[body_ids].reshape(-1, 3, 3), com_B, data.time)
+        if deck is not None:  # the deck's inertial loads and twistlocks (testbed/effects/deck_motion.py)
+            data.xfrc_applied[body_ids] += deck.mujoco_rows(data.qpos[qidx], data.qvel[vidx], data.time)
         if crane is not None:
             crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
         t3 = time.perf_counter()
@@ -312,7 +317,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     per_step = 1e3 / max(steps_done, 1)
     summary = {
         "scene": s.name, "engine": "mujoco_learned", "version": mj.__version__, "mujoco_version": mj.__version__,
-        "predictor": prepared.effect.config.predictor, "params": prepared.effect.config.predictor,
+        "predictor": prepared.effect.config.predictor,
         "hydroelastic_modulus_Pa": float(s.effects.contact.hydroelastic_modulus),
         "time_step_s": h, "duration_s": duration, "steps": steps_done, "diverged": diverged,
         "wall_time_s": wall, "wall_per_sim_s": wall / sim_time if sim_time > 0 else float("nan"),

@@ -35,11 +35,47 @@ markdown (the text of query.md). Timing-dependent (differ between runs): every
 *time_us*, *_ms*, throughput_us_per_pair, wall_time_s, pareto, markdown.
 """
 
+import dataclasses
+from pathlib import Path
+
+from testbed.studies import register
+from testbed.studies.base import Study
 from testbed.studies.query.aggregate import pareto_front
 from testbed.studies.query.methods.base import ContactMethod
 from testbed.studies.query.methods.learned import paper_predict
 from testbed.studies.query.poses import POSE_SETS, PoseSet, make_pose_sets
 from testbed.studies.query.study import SCHEMA, SOUP_N_FULL, SOUP_N_QUICK, run_query_study
 
-__all__ = ["POSE_SETS", "SCHEMA", "SOUP_N_FULL", "SOUP_N_QUICK", "ContactMethod", "PoseSet", "make_pose_sets",
+
+@dataclasses.dataclass
+class QueryConfig:
+    """quick: fewer poses, repeats and soup resolutions (under a minute); progress: progress bars."""
+
+    quick: bool = False
+    progress: bool = True
+
+
+@register
+class QueryStudy(Study):
+    name = "query"
+    help = "time per contact query against accuracy for every contact method (the paper's Tables 3 and 4)"
+    order = 20
+    Config = QueryConfig
+
+    def configure(self, args) -> QueryConfig:
+        return QueryConfig(quick=bool(args.quick), progress=not args.quiet)
+
+    def run(self, config: QueryConfig, out: Path, map_calls=None) -> dict:
+        """run_query_study: measures and writes query.json, query.md and the chart into `out`."""
+        return run_query_study(out, quick=config.quick, progress=config.progress)
+
+    def report(self, result: dict, out: Path) -> list[Path]:
+        """Nothing more: run_query_study wrote them (result['files'] names them)."""
+        return [Path(out) / name for name in result["files"].values()]
+
+    def summary(self, result: dict) -> list[str]:
+        return result["markdown"].splitlines()
+
+
+__all__ = ["POSE_SETS", "QueryConfig", "QueryStudy", "SCHEMA", "SOUP_N_FULL", "SOUP_N_QUICK", "ContactMethod", "PoseSet", "make_pose_sets",
            "paper_predict", "pareto_front", "run_query_study"]

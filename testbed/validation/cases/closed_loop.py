@@ -1,14 +1,14 @@
-"""Case kind `closed_loop`: the learned contact model drives the simulation (issue 10, section 5).
+"""Case kind `closed_loop`: the learned contact model drives the simulation.
 
 One case per scene: Drake's ground truth (the scene's own hydroelastic model), Drake's
 point contact (for its speed) and the `learned_dynamics` closed loop with each predictor,
-all from the same initial state in one process (testbed.compare.compare_predictors, one
-truth run shared by the predictors). Gates judge the improved predictor only; the
+all from the same initial state in one process (testbed.compare.compare_candidates: one
+truth run, Drake point and the learned loop with each predictor as the candidates). Gates judge the improved predictor only; the
 paper's MLP is reported, not gated (where it cannot hold a stack, the table shows it).
 Sections: a one-line verdict near the top of the report, and the table of figures with
 the speed ratios and a verdict per scene.
 
-Scenes where the contact point or normal decides the outcome (issue 23; closed forms in
+Scenes where the contact point or normal decides the outcome (closed forms in
 their YAML and tests/closed_loop/test_closed_loop_scenes.py): overhang_hold (an empty 20 ft box with its
 centre of mass 0.1 m inside the welded lower box's edge: holds), overhang_tip (0.1 m outside:
 tips about the edge, 10 deg at ~1 s) and stack_slide_rest (slides 1.147 m to rest: a tilted
@@ -25,8 +25,10 @@ import math
 
 from learned_contact import sources
 from testbed.bodies.containers import HYDROELASTIC_MODULUS
-from testbed.compare import compare_predictors
+from testbed.compare import Candidate, compare_candidates
+from testbed.compare.candidates import learned_loop
 from testbed.compare.costs import breakdown_line
+from testbed.compare.run_candidates import slug
 from testbed.document import Bullets, Section, Text, table
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
 from testbed.gates.closed_loop import (
@@ -43,6 +45,7 @@ from testbed.gates.closed_loop import (
     case_result,
     judge,
 )
+from testbed.scenario import load_scenario, resolve_scene_path
 from testbed.validation.cases import Case, CaseKind, register
 from testbed.validation.gates import Gate
 from testbed.validation.sensitivity import SENSITIVITY_CHECK
@@ -78,11 +81,13 @@ class ClosedLoopCase(CaseKind):
     def run(self, scene: str, duration: float, predictors=PREDICTORS) -> dict:
         import tempfile
 
+        chosen = [learned_loop(p) for p in predictors]
         with tempfile.TemporaryDirectory(prefix="closed-loop-") as tmp:
-            dirs = [f"{tmp}/{p}" for p in predictors]
-            figures = compare_predictors(scene, list(predictors), out_dirs=dirs, duration=duration, with_point=True,
-                                         replay=False)
-            return case_result(scene, duration, list(zip(predictors, figures, dirs)))
+            f = compare_candidates(load_scenario(resolve_scene_path(scene)), [*chosen, Candidate.point()],
+                                   duration=duration, out_dir=f"{tmp}/compare")
+            runs = [(p, {**f, **f["candidates"][c.label]}, f"{tmp}/compare/judged/{slug(c.label)}")
+                    for p, c in zip(predictors, chosen)]
+            return case_result(scene, duration, runs)
 
     def gates(self, record: dict) -> list[Gate]:
         """The closed-loop gates (testbed.gates.closed_loop) of the gated predictor."""
@@ -171,7 +176,7 @@ def _discrimination(records: list[dict]) -> list:
     scenes = [r["result"]["scene"] for r in records if r["result"]["scene"] in DISCRIMINATION]
     if not scenes:
         return []
-    return [Text("Scenes where the contact point or normal decides the outcome (issue 23; closed forms in the scene "
+    return [Text("Scenes where the contact point or normal decides the outcome (closed forms in the scene "
                  "files): the smallest change to the shipped predictor that fails each scene's gates, measured:"),
             Bullets(tuple(f"{s}: {DISCRIMINATION[s]}" for s in scenes))]
 

@@ -1,14 +1,14 @@
 """Case kind `engine`: the same scenes simulated by the other engines (testbed/engines: every
 registered one but Drake and the gated learned loop), against Drake's ground truth.
 
-One case per scene, one engine_table_row per engine (testbed/engines/comparison.py): Drake's run of the
-scene's own contact model (the ground truth, with its contact log), Drake's bare
-hydroelastic and point-contact runs (for their speed), and every other engine with each
-of its parameter sets (Engine.param_sets), all in one process; each engine's own words
-for the report are its Engine.report_note, so adding an engine touches its package only. Drake runs the scene's own
-contact parameters (the shipped 1e9 Pa unless the scene overrides them), not the learned
-twins' 1e8 Pa (testbed.engines.comparison.engine_variant). A missing engine, or a
-scene it cannot translate, makes the case unavailable (a result saying why), not an error.
+One case per scene, one compare_candidates run per engine (testbed/compare/run_candidates.py):
+Drake's run of the scene's own contact model (the ground truth, once, with its contact log; timed
+again without it for its wall time), Drake point contact (for its speed) and the engine with each of
+its parameter sets (Engine.param_sets) as the candidates, all in one process; each engine's own
+words for the report are its Engine.report_note, so adding an engine touches its package only.
+Drake runs the scene's own contact parameters (the shipped 1e9 Pa unless the scene overrides
+them), not the learned twins' 1e8 Pa, unless the engine is a learned one. A missing engine, or
+a scene it cannot translate, makes the case unavailable (a result saying why), not an error.
 Reported, not gated.
 
 Section "The engine users would pick instead": the table per scene and parameter set.
@@ -20,9 +20,10 @@ from __future__ import annotations
 
 import math
 
+from testbed.compare import Candidate, compare_candidates
 from testbed.document import Section, Text, table
 from testbed.engines import UnsupportedSceneError, alternatives
-from testbed.engines.comparison import engine_table_row
+from testbed.scenario import load_scenario, resolve_scene_path
 from testbed.validation.cases import Case, CaseKind, register
 
 SECTION_ORDER = 30  # the sim_sweep kind's engine chart follows at SECTION_ORDER + 1
@@ -48,6 +49,27 @@ def keys(name: str) -> tuple:
             f"contact_rows_missing_{name}", f"wall_per_sim_s_{name}", "speedup_vs_hydroelastic", "speedup_vs_point",
             "simulated_s_learned")
 
+
+
+def engine_table_row(scene: str, e, duration: float) -> dict:
+    """One scene, Drake's truth run once, Drake point and engine `e` once per parameter set (as
+    candidates of one compare_candidates run, contact rows compared):
+    {'scene', 'duration_s', 'time_step_s', 'wall_per_sim_s_hydroelastic', 'wall_per_sim_s_point',
+     e.name: {params: figures}}, figures with the engine's keys(e.name) and the speed-ups against
+    Drake's hydroelastic and point runs. Raises UnsupportedSceneError."""
+    sets = e.param_sets or (None,)
+    chosen = [Candidate.point(), *(Candidate(e.name, params=p) for p in sets)]
+    f = compare_candidates(load_scenario(resolve_scene_path(scene)), chosen, duration=duration, contacts=True)
+    point = f["candidates"]["Drake point"]
+    row = {"scene": f["scene"], "duration_s": f["duration_s"], "time_step_s": f["time_step_s"],
+           "wall_per_sim_s_hydroelastic": f["wall_per_sim_s_truth"],
+           "wall_per_sim_s_point": point["wall_per_sim_s_learned"], e.name: {}}
+    for c, p in zip(chosen[1:], sets):
+        figures = f["candidates"][c.label]
+        row[e.name][p] = {**figures, f"wall_per_sim_s_{e.name}": figures["wall_per_sim_s_learned"],
+                          f"contact_rows_missing_{e.name}": figures.get("contact_rows_missing"),
+                          "speedup_vs_hydroelastic": figures["speedup_vs_truth"]}
+    return row
 
 
 def engine_cases(scenes) -> list[Case]:
@@ -77,7 +99,7 @@ class EngineCase(CaseKind):
             reason = e.unavailable()
             if reason is None:
                 try:
-                    row = engine_table_row(scene, e.name, params=e.param_sets, duration=duration)
+                    row = engine_table_row(scene, e, duration)
                 except UnsupportedSceneError as err:
                     reason = str(err).strip().splitlines()[0]
             if reason is not None:

@@ -8,13 +8,12 @@ Sections: the predictor's worst case (near the verdict) and the table of scenes.
 
 from __future__ import annotations
 
-import dataclasses
-
 from testbed import variants
 from testbed.bodies.models import GROUND_NAME
 from testbed.contact.surfaces import EXACT_LABEL_TOLERANCE_M
 from testbed.document import Section, Text, table
-from testbed.gates import Gate, KnownLimit, pinned
+from testbed.gates import Gate
+from testbed.gates.in_scene import IN_SCENE_POINT_MEDIAN_M, KNOWN_IN_SCENE_LIMITS, point_error_gate  # noqa: F401
 from testbed.physics import GRAVITY
 from testbed.scenario import load_scenario, shipped_scenes
 from testbed.simulation import run_scenario
@@ -30,16 +29,9 @@ MAX_RESTING_PENETRATION_M = 0.005
 FORCE_BALANCE_TOL = 0.01  # at rest, contact forces on the ground carry the total weight within 1%
 
 # In-scene accuracy of the learned predictor, judged where it is trained to answer: the
-# hydroelastic centre of pressure of scenes driven by hydroelastic contact. Same bound as
-# the offline gate on held-out stacking poses (learned_contact/evaluation/gates.py).
-IN_SCENE_POINT_MEDIAN_M = 0.03
-# Known limits, pinned like the stress suite's expected failures: the gate passes only
-# while the figure stays inside the band around the measured one, so getting worse (or
-# better: the table is stale) fails. scene -> (reason, measured median [m], band factors).
-KNOWN_IN_SCENE_LIMITS: dict = {}
-# Issue 30 emptied it: two_stack (32.0 mm, the payload's offset read from a 1e-5 rad tilt) and
-# bridge (52.6 mm, beyond the resting expert's gate) are answered by Drake's own face-on-face
-# quadrature now (learned_contact.model.quadrature): 0.016 mm and 0.0003 mm in scene.
+# hydroelastic centre of pressure of scenes driven by hydroelastic contact. The bound, the
+# pinned known limits and the gate are testbed.gates.in_scene's, shared with `testbed bench`
+# and `testbed compare` (re-exported here under their old names).
 
 MODELS = ("hydroelastic", "point")
 SMOKE_DURATION_S = 0.8
@@ -124,19 +116,9 @@ class SceneCase(CaseKind):
         median = s.get("learned_vs_hydro_point_error_median_m")
         if params.get("model") != "hydroelastic" or median is None:
             return []
-        known = KNOWN_IN_SCENE_LIMITS.get(params["scene"])
-        gap = s.get("learned_vs_hydro_truth_gap_median_m")
-        beside = (f"; Drake's one-point rule (what its discrete solver applies) lies {gap * 1e3:.3g} mm (median) from "
-                  "this truth in this scene" if gap is not None else "")
-        what = ("median distance between the predictor's point and Drake's hydroelastic centre of pressure (the exact "
-                "integral of its pressure field) over every logged container pair and step" + beside)
-        if known is None:
-            return [Gate(f"{cid}: learned point error in scene", median <= IN_SCENE_POINT_MEDIAN_M, median,
-                         IN_SCENE_POINT_MEDIAN_M, "m", what, uncertainty=EXACT_LABEL_TOLERANCE_M)]
-        reason, figure, factors = known
-        gate = pinned(f"{cid}: learned point error in scene", median, IN_SCENE_POINT_MEDIAN_M, "m", what,
-                      KnownLimit(figure, factors, reason))
-        return [dataclasses.replace(gate, uncertainty=EXACT_LABEL_TOLERANCE_M)]
+        return [point_error_gate(f"{cid}: learned point error in scene", median,
+                                 truth_gap_m=s.get("learned_vs_hydro_truth_gap_median_m"),
+                                 uncertainty_m=EXACT_LABEL_TOLERANCE_M, known=KNOWN_IN_SCENE_LIMITS.get(params["scene"]))]
 
     def sections(self, records: list[dict]) -> list[Section]:
         if not records:

@@ -45,5 +45,5 @@ class StabilityCase(CaseKind):
         return [Section("Stability matrix (unstable entries)", brief, order=40),
                 Section("Stability matrix", [
                     Text("Case x contact model / approximation / time step. A cell names the criterion that failed and "
-                         "its figure (testbed/studies/stability.py states each criterion)."),
+                         "its figure (testbed/studies/stability/matrix.py states each criterion)."),
                     table(["case", *columns], matrix)], order=41, brief=False)]

@@ -1,12 +1,12 @@
-"""`testbed study defaults`: container contact settings judged by evidence (issue 12, section 3).
+"""`testbed study defaults`: container contact settings judged by evidence.
 
 A setting is (hydroelastic modulus [Pa] on every geometry, discrete approximation,
 hydroelastic margin [m], time step [s], stiction tolerance [m/s]). Each setting runs every hard case (the stress
 suite's edge_on_edge, corner_on_face, near_parallel tilt 1e-2, and the shipped scenes
 crane_edge_landing, crane_hard_landing, bridge, five_stack and windy_stack, each with its own
-effects) through `testbed.studies.stability.check`; a SimulationError is a result
-("solver"), not a crash. One more "case", cube_tosses, rolls the real cube tosses of
-issue 12 out under the setting (testbed.calibration; see toss_params). One row per setting
+effects) through `testbed.studies.stability.matrix.check`; a SimulationError is a result
+("solver"), not a crash. One more "case", cube_tosses, rolls the real cube tosses
+out under the setting (testbed.calibration; see toss_params). One row per setting
 holds the worst figure over its cases and a verdict per criterion:
 
 - penetration: worst max penetration / the case's bound (pass: <= 1 on every case).
@@ -46,8 +46,8 @@ from testbed.effects.learned_dynamics.effect import LearnedDynamicsConfig
 from testbed.effects.learned_dynamics.force_law import pressure_stiffness, stability_numbers
 from testbed.errors import SimulationError
 from testbed.scenario import load_scenario, shipped_scenes
-from testbed.studies import stability
-from testbed.studies.stability import FORCE_BALANCE_TOL, RESTING_DRIFT_PER_MINUTE, check
+from testbed.studies.stability import matrix as stability
+from testbed.studies.stability.matrix import FORCE_BALANCE_TOL, RESTING_DRIFT_PER_MINUTE, check
 
 MODULI = (1e8, 3e8, 1e9, 3e9)  # [Pa]
 APPROXIMATIONS = ("sap", "similar", "lagged")
@@ -78,7 +78,7 @@ class Setting:
     margin: float  # [m] hydroelastic margin
     time_step: float  # [s]
     # [m/s] plant.stiction_tolerance: the friction regularisation of 'similar', 'lagged' and TAMSI
-    # (SAP ignores it); 1e-6 is the scenes' default (testbed/scenario.py), Drake's is 1e-4
+    # (SAP ignores it); 1e-6 is the scenes' default (testbed/scenario/), Drake's is 1e-4
     stiction_tolerance: float = 1e-6
 
     @property
