@@ -101,6 +101,11 @@ def run(args) -> int:
             raise TestbedError(f"--predictor: {e.problem}" if named else f"--predictor {args.predictor}: {e.problem}") from None
         raise
     print(format_figures(figures, out))
+    if args.engine == "all":
+        from testbed.compare.candidates import unavailable_alternatives
+
+        for label, why in unavailable_alternatives().items():
+            print(f"  not run: {label}: {why}")
     return figures["exit_status"]
 
 

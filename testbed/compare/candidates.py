@@ -94,13 +94,21 @@ def engine_candidates(name: str, *, params: str | None = None, predictor: str | 
     return [chosen, *([Candidate.point()] if with_point else [])]
 
 
+def unavailable_alternatives() -> dict[str, str]:
+    """{engine label: why it cannot run here} of the engines `--engine all` leaves out."""
+    return {e.label: why for e in alternatives() if (why := e.unavailable()) is not None}
+
+
 def all_candidates(predictor: str, params: str = "matched") -> list[Candidate]:
     """`testbed compare --engine all`: Drake point, the learned loop with `predictor`, then every
     other engine (testbed.engines.alternatives): a learned one with that same `predictor` (every
     learned row answers with the user's model), one with contact-parameter sets with `params`
-    where it has that set (else its first)."""
+    where it has that set (else its first). An engine that cannot run here (its optional package
+    missing: Engine.unavailable) is left out; unavailable_alternatives says which and why."""
     out = [Candidate.point(), learned_loop(predictor)]
     for e in alternatives():
+        if e.unavailable() is not None:
+            continue
         if e.learned:
             out.append(Candidate(e.name, predictor=predictor))
         else:
