@@ -38,13 +38,14 @@ import numpy as np
 from testbed.bench.model import resolve
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
+from testbed.engines import engines
 from testbed.geometry.rotations import rotation_from_rpy
 from testbed.studies.scale import ScaleConfig, run_cell, tasks
+from testbed.studies.scale.settings import models
 
 BATCH_SIZES = (1, 8, 32, 128, 512)  # pairs per call
 STEP_S = 1e-3  # [s] the real-time step
 HOST_SIZE = 96  # containers of the yard the host's step is measured on
-HOST_MODELS = ("mujoco_learned", "learned")  # scale-study models tried for the host's step, in order
 
 
 def stacking_poses(k: int, type_name: str = "1AA", seed: int = 0):
@@ -120,12 +121,20 @@ def pairs_within(budget_s: float, fixed_s: float, per_pair_s: float) -> int:
     return max(0, int(math.floor((budget_s - fixed_s) / per_pair_s))) if budget_s > fixed_s else 0
 
 
+def host_models() -> tuple[str, ...]:
+    """The scale study's learned models (every engine a predictor decides, from the registry),
+    tried in this order for the host's step: a real-time host first, the Drake-hosted (gated) loop last."""
+    specs = models()
+    learned = [name for name, spec in specs.items() if spec.learned]
+    return tuple(sorted(learned, key=lambda name: engines()[specs[name].engine].gated))
+
+
 def host_step(host_size: int = HOST_SIZE, duration: float = 0.05, step_s: float = STEP_S) -> dict:
     """The host engine's own step on a host_size-container yard (module doc): {'model' (the
     scale study's), 'n', 'host_step_s', 'learned_system_s' [s per step], 'pairs_per_step'};
     'host_step_s' NaN and 'why' set when neither learned loop ran."""
     config = ScaleConfig(sizes=(host_size,), duration=duration, big_duration=duration, time_step=step_s,
-                         models=HOST_MODELS, repeats=2, repeat_below_s=1.0)
+                         models=host_models(), repeats=2, repeat_below_s=1.0, yards=("settled",), passes=1)
     why = []
     for task in tasks(config):
         row = run_cell(task)
