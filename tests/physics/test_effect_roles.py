@@ -154,7 +154,7 @@ def test_a_scenario_changed_after_loading_is_checked_again(predictor_loads):
 
 
 def test_compare_loads_the_scene_once(monkeypatch, tmp_path):
-    import testbed.compare.twin as twin
+    import testbed.compare.run_candidates as run_candidates
     import testbed.scenario as scenario_module
     from testbed.cli import main
 
@@ -166,7 +166,7 @@ def test_compare_loads_the_scene_once(monkeypatch, tmp_path):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(scenario_module, "load_scenario", counting)
-    monkeypatch.setattr(twin, "load_scenario", counting)
+    monkeypatch.setattr(run_candidates, "load_scenario", counting)  # the one comparison path loads by name too
     assert main(["compare", "defaults", "--duration", "0.01", "--no-replay", "--out", str(tmp_path / "c")]) == 0
     assert len(loads) == 1  # was 2: the command passes the loaded Scenario on
 
