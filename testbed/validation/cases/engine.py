@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+from learned_contact import sources
 from testbed.compare import Candidate, compare_candidates
 from testbed.document import Section, Text, table
 from testbed.engines import UnsupportedSceneError, alternatives
@@ -57,8 +58,9 @@ def engine_table_row(scene: str, e, duration: float) -> dict:
     {'scene', 'duration_s', 'time_step_s', 'wall_per_sim_s_hydroelastic', 'wall_per_sim_s_point',
      e.name: {params: figures}}, figures with the engine's keys(e.name) and the speed-ups against
     Drake's hydroelastic and point runs. Raises UnsupportedSceneError."""
-    sets = e.param_sets or (None,)
-    chosen = [Candidate.point(), *(Candidate(e.name, params=p) for p in sets)]
+    sets = row_sets(e)
+    chosen = [Candidate.point(), *(Candidate(e.name, predictor=p) if e.learned else Candidate(e.name, params=p)
+                                   for p in sets)]
     f = compare_candidates(load_scenario(resolve_scene_path(scene)), chosen, duration=duration, contacts=True)
     point = f["candidates"]["Drake point"]
     row = {"scene": f["scene"], "duration_s": f["duration_s"], "time_step_s": f["time_step_s"],
@@ -70,6 +72,12 @@ def engine_table_row(scene: str, e, duration: float) -> dict:
                           f"contact_rows_missing_{e.name}": figures.get("contact_rows_missing"),
                           "speedup_vs_hydroelastic": figures["speedup_vs_truth"]}
     return row
+
+
+def row_sets(e) -> tuple:
+    """What engine `e`'s rows are keyed by: the shipped predictor for an engine a predictor decides
+    (its parameter), else its contact-parameter sets (None: it has none)."""
+    return (sources.DEFAULT,) if e.learned else (e.param_sets or (None,))
 
 
 def engine_cases(scenes) -> list[Case]:
@@ -158,7 +166,7 @@ def summary(ran: list[dict]) -> str:
     """One paragraph: the speed-up range and the worst trajectory error per engine and parameter set."""
     parts = []
     for e in alternatives():
-        for p in e.param_sets or (None,):
+        for p in row_sets(e):
             figures = [(s["scene"], s[e.name][p]) for s in ran if p in s.get(e.name, {})]
             if not figures:
                 continue
