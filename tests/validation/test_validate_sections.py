@@ -97,6 +97,7 @@ def test_engine_runner_returns_what_the_section_reads():
 
 def test_engine_unavailable_without_mujoco(monkeypatch):
     _no_mujoco(monkeypatch)
+    monkeypatch.setitem(sys.modules, "pybullet", None)  # nor Bullet: no other engine can run
     kind = registry()["engine"]
     s = kind.run(scene="two_stack", duration=SHORT_S)  # no exception: a result saying why
     assert s["available"] is False and "pip install" in s["reason"]
@@ -114,7 +115,7 @@ def test_sim_sweep_mujoco_curves_and_missing_mujoco(monkeypatch):
     args = dict(models=["hydroelastic_with_fallback"], approximations=["sap"], time_steps=[5e-3],
                 reference_step=1e-3, duration=SHORT_S)
     with pytest.raises(TestbedError, match="engines"):
-        sweep("single_drop", engines=("bullet",), **args)
+        sweep("single_drop", engines=("physx",), **args)
     if "mujoco" not in sys.modules:
         pytest.importorskip("mujoco")
     rows = sweep("single_drop", engines=("drake", "mujoco"), **args)
