@@ -87,6 +87,18 @@ class Trajectory:
     # a learned run's LearnedDynamics.costs() over the timed steps (testbed/compare/costs.py); else {}
     costs: dict = dataclasses.field(default_factory=dict)
 
+    @classmethod
+    def from_steps(cls, steps: dict, every: int, summary: dict, error: str, names) -> "Trajectory":
+        """Another engine's per-step table `steps` (step, time [s], p_WB, q_WB, V_WB, kinetic_energy,
+        potential_energy [J]) on the grid of every `every` steps; summary: its wall_time_s [s],
+        steps and time_step_s [s]; error: how it failed ("" if it did not)."""
+        keep = np.flatnonzero(steps["step"] % every == 0)
+        energy = steps["kinetic_energy"] + steps["potential_energy"]
+        return cls(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
+                   V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
+                   wall_s=summary["wall_time_s"], simulated_s=summary["steps"] * summary["time_step_s"], error=error,
+                   names=tuple(names))
+
 
 def start(scene: BuiltScene):
     """(simulator, context, plant context) of a fresh run of `scene`, initialized."""

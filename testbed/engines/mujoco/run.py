@@ -221,11 +221,5 @@ def simulate_mujoco(scenario: Scenario, *, duration: float | None = None, params
 
 def trajectory_of(run: MujocoRun, every: int) -> Trajectory:
     """The MuJoCo run as a testbed.simulation.Trajectory on the grid of every `every` steps."""
-    steps = run.tables["steps"]
-    keep = np.flatnonzero(steps["step"] % every == 0)
-    energy = steps["kinetic_energy"] + steps["potential_energy"]
-    s = run.summary
-    return Trajectory(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
-                      V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
-                      wall_s=s["wall_time_s"], simulated_s=s["steps"] * s["time_step_s"],
-                      error="MuJoCo reported an unstable state" if s["diverged"] else "", names=tuple(run.free_names))
+    error = "MuJoCo reported an unstable state" if run.summary["diverged"] else ""
+    return Trajectory.from_steps(run.tables["steps"], every, run.summary, error, run.free_names)
