@@ -32,6 +32,10 @@ class OptionalBuildExt(build_ext):
 
     def build_extension(self, ext):
         try:
+            if ext.name == "learned_contact._native":  # the predictor's fast path reads arrays via numpy's C API
+                import numpy
+
+                ext.include_dirs.append(numpy.get_include())
             super().build_extension(ext)
         except Exception as error:  # noqa: BLE001
             print(f"container-contact-testbed: the native core was not built ({error}); "

@@ -8,6 +8,7 @@
 
 extern PyMethodDef cc_py_predict_methods[];
 extern PyMethodDef cc_py_step_methods[];
+int cc_py_predict_init(void); /* numpy's C API for the predictor's fast path */
 
 static PyModuleDef cc_module = {PyModuleDef_HEAD_INIT, "learned_contact._native",
                                 "The native contact core (C11): predictor and contact step.", -1, NULL,
@@ -25,6 +26,7 @@ static int add_methods(PyObject *module, PyMethodDef *table) {
 }
 
 PyMODINIT_FUNC PyInit__native(void) {
+  if (cc_py_predict_init() < 0) return NULL;
   PyObject *module = PyModule_Create(&cc_module);
   if (module == NULL) return NULL;
   if (add_methods(module, cc_py_predict_methods) < 0 || add_methods(module, cc_py_step_methods) < 0 ||

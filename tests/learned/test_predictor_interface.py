@@ -163,3 +163,28 @@ def test_a_matrix_that_is_not_a_rotation_is_refused(compiled, R, what):
         pred = load_predictor(name, compiled=compiled)
         with pytest.raises(PredictorInputError, match=r"R_AB\[1\] is not a rotation matrix"):
             pred.predict(np.array([[0, 0, 2.59]] * 2), np.stack([np.eye(3), R]), size_A=size, size_B=size)
+
+
+def test_every_array_layout_gets_the_fast_paths_answer():
+    """The native core's fast path reads numpy arrays in place (float64, native byte order,
+    C-contiguous); every other layout of the same values (byte-swapped, strided, Fortran order,
+    float32 sizes, lists) goes through the converting path and must get the same bits. A fast
+    path that read a swapped or strided array as if contiguous answers garbage here."""
+    pred = load_predictor("improved")
+    size = np.array([6.058, 2.438, 2.591])
+    rng = np.random.default_rng(5)
+    p = np.column_stack([rng.uniform(-0.3, 0.3, 4), rng.uniform(-0.3, 0.3, 4), np.full(4, 2.57)])
+    R = np.stack([np.eye(3)] * 4)
+    R[1:, :2, :2] = [[np.cos(0.05), -np.sin(0.05)], [np.sin(0.05), np.cos(0.05)]]
+    point, normal = pred.predict(p, R, size_A=size, size_B=size)
+    layouts = {
+        "byte-swapped": (p.astype(">f8"), R.astype(">f8"), size.astype(">f8")),
+        "strided": (np.repeat(p, 2, axis=0)[::2], np.repeat(R, 2, axis=0)[::2], np.repeat(size, 2)[::2]),
+        "Fortran order": (np.asfortranarray(p), np.asfortranarray(R), size),
+        "lists": (p.tolist(), R.tolist(), size.tolist()),
+    }
+    for what, (p_, R_, s_) in layouts.items():
+        got = pred.predict(p_, R_, size_A=s_, size_B=s_)
+        assert np.array_equal(got[0], point) and np.array_equal(got[1], normal), what
+        single = pred.predict(p_[1], R_[1], size_A=s_, size_B=s_)
+        assert np.array_equal(single[0], point[1]) and np.array_equal(single[1], normal[1]), what
