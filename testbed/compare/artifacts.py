@@ -4,19 +4,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.compare.external_work import external_work, power_laws
 from testbed.viz.camera import set_camera_on
 from testbed.viz.replay import finish_recording, with_caption
 from testbed.viz.server import start_meshcat
 
 
-def write_series(path, runs: dict, under_test: str = "learned") -> None:
+def write_series(path, runs: dict, under_test: str = "learned", scenario=None) -> None:
     """trajectories.npz: per run kind K ('truth', 'learned' or 'mujoco', 'point'): K_time (n,) [s],
     K_p_WB (n, m, 3) [m], K_q_WB (n, m, 4) (w, x, y, z), K_V_WB (n, m, 6), K_energy (n,) [J];
-    names (m,) the free containers; position_error (n, m) [m] the run `under_test` vs truth."""
+    names (m,) the free containers; position_error (n, m) [m] the run `under_test` vs truth.
+    With the `scenario` that ran, where its external actors' power is a function of the records
+    (testbed/compare/external_work.py): K_external_work (n,) [J] the work W(t) the wind, a crane
+    or the moving deck did on K's containers since t = 0 (zeros without such an actor) and
+    external_actors (the effects counted)."""
     arrays = {"names": np.array(runs["truth"].names)}
+    laws = None if scenario is None else power_laws(scenario)
     for kind, t in runs.items():
         arrays.update({f"{kind}_time": t.time, f"{kind}_p_WB": t.p_WB, f"{kind}_q_WB": t.q_WB,
                        f"{kind}_V_WB": t.V_WB, f"{kind}_energy": t.energy})
+        if laws is not None:
+            arrays[f"{kind}_external_work"] = external_work(laws, t)
+    if laws is not None:
+        arrays["external_actors"] = np.array([name for name, _ in laws], dtype=str)
     n = len(runs[under_test].time)
     arrays["position_error"] = np.linalg.norm(runs[under_test].p_WB - runs["truth"].p_WB[:n], axis=2)
     np.savez_compressed(path, **arrays)

@@ -180,6 +180,12 @@ class RopeModel:
         tension = np.maximum(0.0, self._EA / rest * (length - rest) + self._c * (length_dot - dl_dot))  # (4,) [N]
         return tension[:, None] * u, p_BoC_W
 
+    def power_W(self, t: float, R_WB, p_WBo, v_WBo, w_WB) -> float:
+        """[W] the ropes' power on the locked container at time t [s] (arguments as
+        corner_forces): sum over the ropes of the corner force . the corner's velocity, in W."""
+        f, p_BoC_W = self.corner_forces(t, R_WB, p_WBo, v_WBo, w_WB)
+        return float(np.einsum("ij,ij->", f, np.asarray(v_WBo) + np.cross(w_WB, p_BoC_W)))
+
 
 class CraneSystem(LeafSystem):
     def __init__(self, assembly, config: CraneConfig):
@@ -306,6 +312,20 @@ class CraneEffect(Effect):
             raise self.fail("container", f"the ropes would start {math.degrees(tilt):.1f} deg off vertical (at most "
                             f"{math.degrees(MAX_INITIAL_TILT_RAD):.1f}): yaw {self.config.container!r} within a few "
                             "degrees of a multiple of 90")
+
+    def external_power(self):
+        """The ropes' power [W] on the carried container as a function of a record (t [s], p_WB
+        (m, 3) [m], R_WB (m, 3, 3), v_WB (m, 3) [m/s] body-origin velocities, w_WB (m, 3) [rad/s]
+        of the free containers in scene order, in W), zero from the scheduled release on; None
+        when the twistlocks release on seating: that release is an event of the run (its
+        contact), not a function of the recorded state, so the records cannot say when the
+        ropes stopped pulling."""
+        if self.config.release_time is None:
+            return None
+        free = [c for c in self.scenario.containers if not c.fixed]
+        i = [c.name for c in free].index(self.config.container)
+        ropes, release = RopeModel(self.config, free[i]), self.config.release_time
+        return lambda t, p, R, v, w: 0.0 if t >= release else ropes.power_W(t, R[i], p[i], v[i], w[i])
 
     def add_systems(self, assembly) -> list:
         self.crane = CraneSystem(assembly, self.config)

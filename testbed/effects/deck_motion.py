@@ -204,6 +204,15 @@ class DeckMotionEffect(Effect):
             raise self.fail("twistlock_damping", f"{c.twistlock_damping:g} N s/m is too high for the {h:g} s step with "
                                                  f"a {m:g} kg container; expected at most {m / (4 * h):.3g} N s/m")
 
+    def external_power(self):
+        """The deck's power [W] on the scene's free containers (DeckMotionLaw.power_W: its
+        inertial wrenches and the twistlocks) as a function of a record (t [s], p_DB (m, 3) [m],
+        R_DB (m, 3, 3), v_DB (m, 3) [m/s] body-origin velocities, w_DB (m, 3) [rad/s], free
+        containers in scene order, all in the deck frame D: the plant's world)."""
+        specs = [c for c in self.scenario.containers if not c.fixed]
+        law = build_law(self.config, self.scenario, specs, DRAKE_GRAVITY, getattr(self, "series", None))
+        return law.power_W
+
     def add_systems(self, assembly) -> list:
         return [DeckLoads(assembly, self.config, getattr(self, "series", None))]
 

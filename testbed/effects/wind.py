@@ -73,6 +73,12 @@ class WindLaw:
         f = self.forces_W(R_WC, t)
         return np.hstack([f, np.cross(-np.einsum("kij,kj->ki", R_WC, com_B), f)])
 
+    def power_W(self, t: float, R_WC, v_WC) -> float:
+        """[W] the wind's power on the k containers at time t [s]: sum of forces_W . v_WC, with
+        v_WC (k, 3) [m/s] the velocities of their geometric centres (where the force acts), in W."""
+        return float(np.einsum("ki,ki->", self.forces_W(np.asarray(R_WC, float).reshape(-1, 3, 3), t),
+                               np.asarray(v_WC, float).reshape(-1, 3)))
+
 
 class WindLoad(LeafSystem):
     def __init__(self, assembly, config: WindConfig):
@@ -121,6 +127,14 @@ class WindEffect(Effect):
 
     def add_systems(self, assembly) -> list:
         return [WindLoad(assembly, self.config)]
+
+    def external_power(self):
+        """The wind's power [W] on the scene's free containers (scene order) as a function of a
+        record: (t [s], p_WB (m, 3) [m], R_WB (m, 3, 3), v_WB (m, 3) [m/s] body-origin velocities,
+        w_WB (m, 3) [rad/s]) -> W, all in W (testbed/compare/external_work.py integrates it)."""
+        specs = [c for c in self.scenario.containers if not c.fixed]
+        law = WindLaw(self.config, np.array([c.container_type().size for c in specs], float).reshape(-1, 3))
+        return lambda t, p, R, v, w: law.power_W(t, R, v)
 
     def summarize(self, tables) -> dict:
         c = self.config

@@ -157,6 +157,36 @@ def test_mujoco_rows_are_the_same_law_as_drakes():
     np.testing.assert_allclose(rows, direct, rtol=1e-9, atol=1e-9 * np.abs(direct).max())
 
 
+
+def test_the_deck_power_is_its_wrenches_power():
+    """power_W (what the closed-loop energy gate integrates: testbed/compare/external_work.py) is
+    the power of wrenches_D, here moved to the body origins: sum F . v_o + (tau + (c - o) x F) . w
+    on a random state [W]; a deck at rest adds no power."""
+    rng = np.random.default_rng(5)
+    motion = DeckMotion((Harmonic(15, 6, 20), Harmonic(5, 4, 50), Harmonic(1.5, 7, 10)), [0.3, -0.2, -5], 1.0)
+    com = rng.normal(size=(2, 3)) * 0.2
+    inertia = np.array([np.diag([1e4, 3e4, 2.5e4]), np.diag([2e3, 9e3, 8e3])])
+    law = DeckMotionLaw(motion, (0, 0, -G), [2e4, 5e3], com, inertia)
+    R = np.array([_rot(rng.normal(size=3)) for _ in range(2)])
+    p, v, w = (rng.normal(size=(2, 3)) for _ in range(3))
+    rows = law.wrenches_D(1.7, p, R, v, w)
+    arm = np.einsum("kij,kj->ki", R, com)
+    expected = np.sum(rows[:, :3] * v) + np.sum((rows[:, 3:] + np.cross(arm, rows[:, :3])) * w)
+    assert abs(expected) > 1e3
+    assert law.power_W(1.7, p, R, v, w) == pytest.approx(expected, rel=1e-12)
+    still = DeckMotionLaw(DeckMotion((Harmonic(), Harmonic(), Harmonic()), [0, 0, -5], 0.0), (0, 0, -G),
+                          [2e4, 5e3], com, inertia)
+    assert still.power_W(1.7, p, R, v, w) == 0.0
+
+
+def _rot(axis_angle) -> np.ndarray:
+    """The rotation matrix of a rotation vector [rad] (Rodrigues)."""
+    angle = np.linalg.norm(axis_angle)
+    k = np.array([[0, -axis_angle[2], axis_angle[1]], [axis_angle[2], 0, -axis_angle[0]],
+                  [-axis_angle[1], axis_angle[0], 0]]) / angle
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
 # ----------------------------------------------------------------------------- 2. tilt closed forms
 
 TILT = """name: deck_tilt

@@ -164,6 +164,18 @@ class DeckMotionLaw:
         args[1] = args[1].reshape(-1, 3, 3)
         return self.inertial_wrenches(t, *args) + self.lock_wrenches(*args)
 
+    def power_W(self, t: float, p_DC, R_DC, v_DC, w_D) -> float:
+        """[W] the power of wrenches_D (the deck's inertial wrenches and the twistlocks) on the k
+        bodies at t [s], arguments as inertial_wrenches (in D): force . COM velocity plus
+        torque . angular velocity, summed. Its integral is the work the moving deck (and the
+        locks' springs and dampers) does on the bodies in D, where the plant's energy is measured."""
+        p_DC, R_DC, v_DC, w_D = (np.asarray(x, float) for x in (p_DC, R_DC, v_DC, w_D))
+        R_DC = R_DC.reshape(-1, 3, 3)
+        rows = self.wrenches_D(t, p_DC, R_DC, v_DC, w_D)
+        w_D = w_D.reshape(-1, 3)
+        v_com = v_DC.reshape(-1, 3) + np.cross(w_D, np.einsum("kij,kj->ki", R_DC, self.com_C))
+        return float(np.einsum("ki,ki->", rows[:, :3], v_com) + np.einsum("ki,ki->", rows[:, 3:], w_D))
+
     def mujoco_rows(self, qpos, qvel, t: float) -> np.ndarray:
         """(k, 6) rows of MuJoCo's xfrc_applied [force, torque about the COM, in D = MuJoCo's
         world] from the free joints' qpos (k, 7) [position of C, quaternion w x y z] and qvel
