@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.data.sampling import DEFAULT_TYPES
-from learned_contact.evaluation.gates import GeometricPrior, gate_figures, held_out, verdicts
+from learned_contact.evaluation.gates import GeometricPrior, answer_figures, held_out, verdicts
 from learned_contact.evaluation.metrics import point_normal_errors
 from learned_contact.interface import SIZE_TOLERANCE
 
@@ -40,8 +40,8 @@ def pose_sets(seed: int, n: int, *, workers: int = 2, types=DEFAULT_TYPES) -> di
     return held_out(seed, n, workers=workers, types=tuple(types))
 
 
-def _stats(point, normal, ds) -> dict:
-    e_point, e_normal = point_normal_errors(point, normal, ds)
+def _stats(e_point, e_normal) -> dict:
+    """{"point_<stat>_m", "normal_<stat>_deg"} of point errors [m] and normal errors [deg] (STATS)."""
     out = {}
     for name, q in STATS:
         out[f"point_{name}_m"] = float(np.percentile(e_point, q))
@@ -75,19 +75,23 @@ def covered(predictor, data: dict) -> tuple[dict, dict]:
     return kept, counts
 
 
-def accuracy(predictor, data: dict, seed: int) -> dict:
+def accuracy(model, data: dict, seed: int) -> dict:
     """{"sets": {set: figures + "*_vs_prior" ratios + "n"}, "gates": learned_contact.evaluation.gates
-    verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one predictor (or
-    BenchModel) on the poses of `data` (pose_sets: drawn over its declared types, so all of them)
-    it declares it answers (`covered`)."""
-    predictor = getattr(predictor, "predictor", predictor)
+    verdicts, "gates_passed", "gates_total", "coverage": {set: [kept, of]}} for one BenchModel (or
+    predictor) on the poses of `data` (pose_sets: drawn over its declared types, so all of them)
+    it declares it answers (`covered`). The model is asked once per set: its figures and the gates
+    read the same answers."""
+    predictor = getattr(model, "predictor", model)
     data, counts = covered(predictor, data)
+    answers = {name: predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B) for name, ds in data.items()}
+    gates = verdicts(answer_figures(answers, data), max((len(ds) for ds in data.values()), default=0), seed) if data else []
     prior = GeometricPrior()
     sets = {}
     for name, ds in data.items():
-        point, normal = predictor.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
-        mine = _stats(point, normal, ds)
-        base = _stats(*prior.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)
+        point, normal = answers[name]
+        errors = point_normal_errors(point, normal, ds)
+        prior_errors = point_normal_errors(*prior.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B), ds)
+        mine, base = _stats(*errors), _stats(*prior_errors)
         figures = {"n": len(ds), **mine}
         for key, value in mine.items():
             figures[f"{key}_vs_prior"] = value / base[key] if base[key] > 0 else float("inf")
@@ -96,6 +100,5 @@ def accuracy(predictor, data: dict, seed: int) -> dict:
         figures["point_median_m_vs_one_point"] = float(np.median(np.linalg.norm(point - ds.cop_one_point, axis=1)))
         figures["truth_gap_median_m"] = float(np.median(np.linalg.norm(ds.cop - ds.cop_one_point, axis=1)))
         sets[name] = figures
-    gates = verdicts(gate_figures(predictor, data), max((len(ds) for ds in data.values()), default=0), seed) if data else []
     return {"sets": sets, "gates": gates, "gates_passed": sum(g["passed"] for g in gates), "gates_total": len(gates),
             "coverage": {k: list(v) for k, v in counts.items()}}

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from learned_contact.data.sampling import DEFAULT_TYPES
-from learned_contact.sources import SHIPPED_NAMES, label
+from learned_contact.sources import SHIPPED_NAMES
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
 from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
@@ -159,11 +159,11 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     """Judges each predictor in `specs` (learned_contact.sources strings) the same way; see
     the module docstring. Writes bench.json, summary.md and index.html to out_dir when given."""
     specs = list(dict.fromkeys(str(s) for s in specs)) or list(DEFAULT_PREDICTORS)
-    labels = [label(s) for s in specs]
+    models = [resolve(s) for s in specs]  # every model loaded (and checked) once, before anything runs
+    labels = [m.label for m in models]
     if len(set(labels)) != len(labels):
         raise TestbedError(f"predictors {specs}: two have the same label {labels}; give them distinct file names")
     say = (lambda msg: print(f"bench: {msg}", flush=True)) if progress else (lambda msg: None)
-    models = [resolve(s) for s in specs]  # every model loaded (and checked) once, before anything runs
     t0 = time.perf_counter()
     n = N_POSES
     sets = _sets_per_types(models, seed, n, workers, say)

@@ -8,12 +8,17 @@ there is nothing to judge), 3 when a gate fails or the learned run diverged
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from learned_contact import sources
 from testbed.commands import timestamp
 from testbed.engines import candidates
 from testbed.errors import ScenarioError, TestbedError
+
+if TYPE_CHECKING:
+    from testbed.scenario import Scenario
 
 NAME = "compare"
 HELP = ("run a scene with Drake's contact and with the learned model in the loop, judge it by the closed-loop "
@@ -65,16 +70,56 @@ def check_options(args) -> None:
         raise TestbedError(f"--duration: expected a positive number of seconds, got {args.duration}")
 
 
-def _out_dir(args, scenario, chosen, predictor: str) -> Path:
-    if args.out:
-        return Path(args.out)
+@dataclasses.dataclass(frozen=True)
+class ComparePlan:
+    """What one `testbed compare` runs, read once from its options: the scene, the candidates
+    beside Drake's truth (testbed/compare/candidates.py: Candidate) and how the one comparison
+    (testbed/compare/run_candidates.py: compare_candidates) runs them.
+
+    engine: --engine (a registered engine's name, or "all"); asked: --predictor as given (None:
+    none); predictor: the spec the learned rows run (asked, else the scene's, else the shipped
+    default); contacts: a non-gated engine's own contact rows are judged too; reference:
+    "truth", or None with --no-truth (the candidates timed alone)."""
+
+    scenario: Scenario
+    source: str
+    engine: str
+    asked: str | None
+    predictor: str
+    candidates: list
+    out_dir: Path
+    duration: float | None
+    reference: str | None
+    contacts: bool
+    replay: bool
+
+    @classmethod
+    def of(cls, args, scenario, source: str, predictor: str, lineup: list) -> ComparePlan:
+        """The plan of the options `args` (checked: check_options) for the loaded scene, its
+        resolved predictor and the candidates they name (printed.candidate_list)."""
+        chosen = candidates().get(args.engine)  # None: all
+        if args.out:
+            out = Path(args.out)
+        else:
+            tag = _tag(args.engine, chosen, predictor, args.params) + ("-no-truth" if args.no_truth else "")
+            out = Path("reports") / "compare" / f"{scenario.name}-{tag}-{timestamp()}"
+        return cls(scenario=scenario, source=source, engine=args.engine, asked=args.predictor, predictor=predictor,
+                   candidates=lineup, out_dir=out, duration=args.duration, reference=None if args.no_truth else "truth",
+                   contacts=chosen is not None and not chosen.gated, replay=not args.no_replay)
+
+    def options(self) -> dict:
+        """compare_candidates' keywords of this plan (its `judge` comes from the command)."""
+        return {"reference": self.reference, "duration": self.duration, "contacts": self.contacts,
+                "out_dir": self.out_dir, "replay": self.replay, "source": self.source, "in_scene": True}
+
+
+def _tag(engine_name: str, chosen, predictor: str, params: str | None) -> str:
+    """The default output directory's middle: what ran beside Drake."""
     if chosen is None or chosen.gated:  # the learned loop, alone or with every engine
-        tag = sources.label(predictor) + ("-all" if args.engine == "all" else "")
-    elif chosen.learned:
-        tag = f"{chosen.name}-{sources.label(predictor)}"
-    else:
-        tag = f"{chosen.name}-{args.params or chosen.param_sets[0]}" if chosen.param_sets else chosen.name
-    return Path("reports") / "compare" / f"{scenario.name}-{tag}{'-no-truth' if args.no_truth else ''}-{timestamp()}"
+        return sources.label(predictor) + ("-all" if engine_name == "all" else "")
+    if chosen.learned:
+        return f"{chosen.name}-{sources.label(predictor)}"
+    return f"{chosen.name}-{params or chosen.param_sets[0]}" if chosen.param_sets else chosen.name
 
 
 def run(args) -> int:
@@ -87,21 +132,18 @@ def run(args) -> int:
     check_options(args)
     path = resolve_scene_path(args.scene)
     scenario = load_scenario(path, overrides=args.set or [])
-    source = source_label(path, args.set)
-    chosen = candidates().get(args.engine)
-    chosen_list = candidate_list(scenario, args.engine, args.predictor, args.params, no_truth=args.no_truth)
-    out = _out_dir(args, scenario, chosen, predictor_for(scenario, args.predictor))
+    predictor = predictor_for(scenario, args.predictor)  # once: the candidates and the output's name take it
+    plan = ComparePlan.of(args, scenario, source_label(path, args.set), predictor,
+                          candidate_list(args.engine, predictor, args.params, no_truth=args.no_truth))
     try:
-        figures = compare_candidates(scenario, chosen_list, reference=None if args.no_truth else "truth",
-                                     duration=args.duration, contacts=chosen is not None and not chosen.gated,
-                                     out_dir=out, replay=not args.no_replay, source=source, judge=judge, in_scene=True)
+        figures = compare_candidates(plan.scenario, plan.candidates, judge=judge, **plan.options())
     except ScenarioError as e:
-        if args.predictor is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
-            named = args.predictor in e.problem  # the loaders name the file or module:attribute already
-            raise TestbedError(f"--predictor: {e.problem}" if named else f"--predictor {args.predictor}: {e.problem}") from None
+        if plan.asked is not None and e.field == PREDICTOR_FIELD:  # the option, not the shipped file's field
+            named = plan.asked in e.problem  # the loaders name the file or module:attribute already
+            raise TestbedError(f"--predictor: {e.problem}" if named else f"--predictor {plan.asked}: {e.problem}") from None
         raise
-    print(format_figures(figures, out))
-    if args.engine == "all":
+    print(format_figures(figures, plan.out_dir))
+    if plan.engine == "all":
         from testbed.compare.candidates import unavailable_alternatives
 
         for label, why in unavailable_alternatives().items():

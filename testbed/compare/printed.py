@@ -5,22 +5,21 @@ it prints of compare.json (testbed/commands/compare.py keeps its options and exi
 from __future__ import annotations
 
 from testbed.bodies.containers import HYDROELASTIC_MODULUS
-from testbed.compare.candidates import Candidate, all_candidates, engine_candidates, learned_loop, predictor_for
+from testbed.compare.candidates import Candidate, all_candidates, engine_candidates, learned_loop
 from testbed.compare.costs import breakdown_line
 from testbed.compare.metrics import error_lines
 from testbed.compare.run_candidates import NO_REFERENCE
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
-from testbed.engines import candidates, engine
+from testbed.engines import candidates
 
 
-def candidate_list(scenario, engine_name: str, predictor: str | None, params: str | None, *,
-                   no_truth: bool = False) -> list:
+def candidate_list(engine_name: str, spec: str, params: str | None, *, no_truth: bool = False) -> list:
     """The candidates `testbed compare` options name: the learned loop and Drake point
     (--engine learned, the default), engine NAME and Drake point (--engine NAME), or every
     engine (--engine all, candidates.all_candidates); Drake point left out with `no_truth`.
-    predictor: --predictor (None: the scene's, else the shipped default); params: --params."""
+    spec: the predictor the learned rows run (candidates.predictor_for: --predictor, else the
+    scene's, else the shipped default); params: --params."""
     chosen = candidates().get(engine_name)
-    spec = predictor_for(scenario, predictor)
     if engine_name == "all":
         out = all_candidates(spec, params or "matched")
     elif chosen.gated:
@@ -44,7 +43,7 @@ def figure_lines(f: dict, out=None, *, head: str = "", not_judged: bool = False)
         return [*_timing_lines(f), *([f"  output: {out}"] if out is not None else []),
                 f"verdict: {NO_REFERENCE} (exit status {f['exit_status']})"]
     primary = candidates()[f["engine"]]
-    lines = _learned_lines(f, head, not_judged) if primary.gated else format_engine_figures(f) + truth_lines(f)
+    lines = _learned_lines(f, head, not_judged) if primary.gated else format_engine_figures(f, primary) + truth_lines(f)
     if len(f["candidates"]) > 2:
         lines += format_table(f["table"])
     if out is not None:
@@ -98,10 +97,10 @@ def truth_lines(f: dict) -> list[str]:
     return []
 
 
-def format_engine_figures(f: dict) -> list[str]:
+def format_engine_figures(f: dict, e) -> list[str]:
     """The lines `testbed compare SCENE --engine NAME` prints of compare.json `f` (before the
-    verdict lines of a learned engine)."""
-    e = engine(f["engine"])
+    verdict lines of a learned engine); e: the engine that ran (f["engine"]'s, resolved once by
+    figure_lines)."""
     other = ("" if f["hydroelastic_modulus_Pa"] == KAPPA_MODULUS else
              f"; `testbed compare` without --engine runs the learned loop and its Drake truth at the learned law's "
              f"{KAPPA_MODULUS:.0e} Pa: its figures are against another truth")

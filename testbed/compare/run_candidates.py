@@ -103,17 +103,19 @@ def _run_scene(scenario, candidate):
     return variants.derive(scenario, variants.physics_only(learned=candidate.judged))
 
 
-def check_candidates(scenario, candidates, source="<scenario>") -> None:
+def check_candidates(scenario, candidates, source="<scenario>") -> dict:
     """Before anything runs: every candidate's engine accepts the scene (UnsupportedSceneError)
-    and every predictor loads (ScenarioError naming effects.learned_dynamics.predictor)."""
+    and every predictor loads (ScenarioError naming effects.learned_dynamics.predictor).
+    Returns {label: the scene that candidate runs (_run_scene)}, derived here once."""
     labels = [c.label for c in candidates]
     if len(set(labels)) != len(labels):
         raise ValueError(f"candidate labels must be unique, got {labels}")
+    scenes = {c.label: _run_scene(scenario, c) for c in candidates}
     for c in candidates:
-        s = _run_scene(scenario, c)
-        c.spec.check(s)
+        c.spec.check(scenes[c.label])
         if c.judged:
-            validate_scenario(variants.derive(s, variants.learned_loop(c.predictor)), source)
+            validate_scenario(variants.derive(scenes[c.label], variants.learned_loop(c.predictor)), source)
+    return scenes
 
 
 def compare_candidates(scenario, candidates, *, reference: str | None = "truth", duration: float | None = None,
@@ -146,7 +148,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     duration = scenario.duration if duration is None else float(duration)
     if not duration > 0:
         raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
-    check_candidates(scenario, candidates, source)
+    scenes = check_candidates(scenario, candidates, source)
     h = scenario.plant.time_step
     every = record_every or steps_per_record(h)
     common = {"scene": scenario.name, "duration_s": duration, "time_step_s": h, "record_period_s": every * h,
@@ -163,7 +165,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     runs = {}
     for c in candidates:
         with_rows = contacts and reference is not None and not c.spec.drake_hosted
-        runs[c.label] = c.spec.run(_run_scene(scenario, c), duration=duration, record_every=every, params=c.run_params,
+        runs[c.label] = c.spec.run(scenes[c.label], duration=duration, record_every=every, params=c.run_params,
                                    predictor=c.predictor, contacts=with_rows, source=source)
     primary = primary_of(candidates)
     if reference is None:
@@ -185,7 +187,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
                     if spec not in asked:  # one open-loop run per predictor, shared by its rows
                         asked[spec] = in_scene_figures(scenario, spec, duration)
                     per[c.label]["in_scene"] = asked[spec]
-                _judge(c, per[c.label], common, tmp, truth, runs[c.label], point, judge)
+                _judge(c, per[c.label], common, tmp, truth, runs[c.label], point, judge, scenario)
         figures = {**common, **per[primary.label], "primary": primary.label, "candidates": per,
                    "table": table(per, common)}
         if "verdict" not in figures:  # no closed-loop verdict: nothing decides the exit status
@@ -250,13 +252,13 @@ def slug(label: str) -> str:
     return re.sub(r"[^A-Za-z0-9.+-]+", "_", label).strip("_") or "candidate"
 
 
-def _judge(candidate, f: dict, common: dict, tmp: Path, truth, run, point, judge) -> None:
+def _judge(candidate, f: dict, common: dict, tmp: Path, truth, run, point, judge, scenario=None) -> None:
     """A judged candidate's series as the run under test in tmp/judged/<slug>/trajectories.npz
     (what the closed-loop gates read), and `judge`'s verdict on it merged into its figures `f`."""
     directory = tmp / "judged" / slug(candidate.label)
     directory.mkdir(parents=True)
     series = {"truth": truth, "learned": run.trajectory, **({"point": point.trajectory} if point else {})}
-    artifacts.write_series(directory / "trajectories.npz", series)
+    artifacts.write_series(directory / "trajectories.npz", series, scenario=scenario)
     if judge is not None:
         f.update(judge({**common, **f}, directory))
 
@@ -278,7 +280,7 @@ def series_keys(candidates) -> dict:
 def _write(tmp: Path, scenario, figures: dict, truth, runs: dict, candidates, primary, replay: bool) -> None:
     keys = series_keys(candidates)
     series = {"truth": truth, **{keys[c.label]: runs[c.label].trajectory for c in candidates}}
-    artifacts.write_series(tmp / "trajectories.npz", series, under_test=keys[primary.label])
+    artifacts.write_series(tmp / "trajectories.npz", series, under_test=keys[primary.label], scenario=scenario)
     under = runs[primary.label].trajectory
     what = (f"{figures['predictor']}" if primary.judged and "predictor" in figures else
             f"{primary.run_params} contact parameters")
