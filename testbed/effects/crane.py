@@ -279,7 +279,7 @@ class CraneEffect(Effect):
     name = "crane"
     Config = CraneConfig
     role = Role.PHYSICS
-    translated_by = ("mujoco",)
+    translated_by = ("mujoco", "bullet")
     measured_alone = False  # its defaults carry no container
     order = 25
     requires = ("contact",)

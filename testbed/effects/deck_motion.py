@@ -140,7 +140,7 @@ class DeckMotionEffect(Effect):
     name = "deck_motion"
     Config = DeckMotionConfig
     role = Role.PHYSICS
-    translated_by = ("mujoco",)
+    translated_by = ("mujoco", "bullet")
     order = 21
     measured_alone = False  # the default config keeps the deck at rest: nothing to measure
 

@@ -1,6 +1,7 @@
 """The Bullet engine (testbed/engines/bullet/): registration, translation, physics against closed
 forms (a drop comes to rest, a slide stops, wind is held by friction), two_stack against Drake,
-refusals. Skipped where pybullet is not installed (install: pip install pybullet==3.2.7)."""
+refusals, the crane and the moving deck accepted (their physics: test_bullet_crane.py,
+test_bullet_deck.py). Skipped where pybullet is not installed (install: pip install pybullet==3.2.7)."""
 
 import sys
 
@@ -185,7 +186,6 @@ def test_two_stack_against_drake(pb):
 
 @pytest.mark.parametrize("scene, overrides, field", [
     ("two_stack", ["effects.learned_dynamics={}"], "effects.learned_dynamics"),
-    ("crane_hard_landing", [], "effects.crane"),
 ])
 def test_an_untranslated_effect_is_refused_in_one_line(scene, overrides, field):
     scenario = load_scenario(scene, overrides=overrides)
@@ -194,6 +194,18 @@ def test_an_untranslated_effect_is_refused_in_one_line(scene, overrides, field):
     e = caught.value
     assert e.field == field and "\n" not in str(e)
     assert str(e).startswith(f"scene '{scenario.name}': {field} is not supported by the Bullet engine: ")
+
+
+@pytest.mark.parametrize("scene", ["crane_hard_landing", "yard_swing_strike", "ship_bay_roll", "ship_bay_open"])
+def test_the_crane_and_the_moving_deck_are_accepted(scene):
+    """Their laws are applied as external forces (testbed/engines/bullet/loads.py; physics in
+    tests/engines/test_bullet_crane.py and test_bullet_deck.py); a crane's load and every body on a
+    moving deck never sleep."""
+    scenario = load_scenario(scene)
+    engine("bullet").check(scenario)
+    driven = {b.name for b in translate(scenario).bodies if not b.sleeping}
+    crane = scenario.effects.crane
+    assert driven == ({crane.container} if crane else {c.name for c in scenario.containers})
 
 
 def test_a_predictor_is_refused():

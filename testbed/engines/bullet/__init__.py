@@ -4,6 +4,8 @@ manifold of points, an impulse solver, sleeping bodies), judged against Drake's 
 
   model.py   Scenario -> a Bullet world in DIRECT mode, with Bullet's default contact or
              a per-body stiffness and damping matched to Drake's hydroelastic contact
+  loads.py   the applied-force effects (wind, deck_motion with its twistlocks, the crane):
+             each effect's own law, applied before every step
   run.py     simulate_bullet: steps it, records the Drake-shaped `steps` and per-pair
              `contacts` tables and the wall time of the steps; trajectory_of
 

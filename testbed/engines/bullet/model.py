@@ -12,7 +12,10 @@ default), enableConeFriction 1 (the two friction impulses clamped to a circle, n
 deterministicOverlappingPairs 1 (a run repeats bitwise). Every body: restitution 0 (Drake's
 discrete contact is inelastic), rolling and spinning friction 0 (Drake has none), linear and
 angular damping 0 (pybullet's default is 0.04: an air drag Drake does not have), sleeping ON
-with Bullet's own thresholds (ACTIVATION_STATE_ENABLE_SLEEPING).
+with Bullet's own thresholds (ACTIVATION_STATE_ENABLE_SLEEPING), except for the bodies that
+loads.py drives (every free body on a moving deck, the crane's load): a sleeping body ignores
+applied forces, and a container at rest on a slowly rolling deck would fall asleep before it
+slides.
 
 Friction: Bullet multiplies the two bodies' coefficients, so every body carries sqrt(mu) of its
 own mu (the scene's friction.mu, else its mu_dynamic; no `friction` effect: 0): a pair of equal
@@ -58,8 +61,9 @@ from testbed.scenario import Scenario
 
 ENGINE_NAME = "bullet"  # what an effect's `translated_by` names when this engine reproduces it
 INSTALL = "pip install pybullet==3.2.7"
-# PHYSICS effects this engine reproduces whether or not their `translated_by` names it yet
-# (contact: the boxes' contact; friction: the coefficients above)
+# PHYSICS effects every engine reproduces in its own contact (contact: the boxes' contact;
+# friction: the coefficients above); the others name "bullet" in their `translated_by` (wind,
+# crane, deck_motion: their laws applied as external loads, loads.py)
 NATIVE_EFFECTS = ("contact", "friction")
 CONTACTS_PER_FACE = 4  # Bullet's persistent manifold keeps at most 4 points per body pair
 QUAY_HALF_SIZE = (200.0, 200.0, 0.5)  # [m] the static quay box (top face at the ground height)
@@ -102,7 +106,8 @@ class BodyParams:
 
     mass [kg] (0: static), inertia (3,) [kg m^2] principal moments about the COM in C's axes,
     com_C (3,) [m] the COM from C in C, half_size (3,) [m], friction [-] the body's own factor
-    (sqrt of its mu), stiffness [N/m] and damping [N s/m] per contact point (nan: Bullet's own)."""
+    (sqrt of its mu), stiffness [N/m] and damping [N s/m] per contact point (nan: Bullet's own),
+    sleeping: whether Bullet may deactivate it."""
 
     name: str
     mass: float
@@ -112,6 +117,7 @@ class BodyParams:
     friction: float
     stiffness: float = float("nan")
     damping: float = float("nan")
+    sleeping: bool = True  # False: never deactivated (under the deck's loads, the crane's load: loads.py)
 
 
 @dataclasses.dataclass
@@ -180,7 +186,7 @@ def translate(scenario: Scenario, *, params: str = "matched", time_step: float |
         raise UnknownChoiceError("Bullet contact-parameter set", params, PARAM_SETS)
     check_supported(scenario)
     h = scenario.plant.time_step if time_step is None else float(time_step)
-    bodies = []
+    bodies, crane = [], scenario.effects.crane
     if scenario.ground:
         mu = _mu(scenario, scene_properties(scenario, None))
         bodies.append(BodyParams(GROUND_NAME, 0.0, (0.0,) * 3, (0.0,) * 3, QUAY_HALF_SIZE, float(np.sqrt(mu))))
@@ -189,10 +195,12 @@ def translate(scenario: Scenario, *, params: str = "matched", time_step: float |
         moments = (spec.box.inertia if spec.type == BOX_TYPE and spec.box and spec.box.inertia
                    else solid_box_inertia(spec.total_mass(), ctype.size))
         k, c = matched_contact(scenario, spec) if params == "matched" and scenario.effects.contact else (np.nan,) * 2
+        driven = scenario.effects.deck_motion is not None or (crane is not None and crane.container == spec.name)
         bodies.append(BodyParams(spec.name, 0.0 if spec.fixed else float(spec.total_mass()),
                                  tuple(float(x) for x in moments), tuple(float(x) for x in spec.com_offset),
                                  tuple(float(x) for x in ctype.half_size),
-                                 float(np.sqrt(_mu(scenario, scene_properties(scenario, spec)))), float(k), float(c)))
+                                 float(np.sqrt(_mu(scenario, scene_properties(scenario, spec)))), float(k), float(c),
+                                 sleeping=not driven))
     return Translation(scenario=scenario, params=params, time_step=h, body_names=[b.name for b in bodies],
                        free_names=[c.name for c in scenario.containers if not c.fixed], bodies=bodies)
 
@@ -221,7 +229,9 @@ def build_world(scenario: Scenario, *, params: str = "matched", time_step: float
                                  baseOrientation=[*wxyz[1:], wxyz[0]], baseInertialFramePosition=list(body.com_C),
                                  useMaximalCoordinates=True, physicsClientId=cid)
         dynamics = dict(lateralFriction=body.friction, restitution=0.0, rollingFriction=0.0, spinningFriction=0.0,
-                        linearDamping=0.0, angularDamping=0.0, activationState=pb.ACTIVATION_STATE_ENABLE_SLEEPING)
+                        linearDamping=0.0, angularDamping=0.0,
+                        activationState=(pb.ACTIVATION_STATE_ENABLE_SLEEPING if body.sleeping
+                                         else pb.ACTIVATION_STATE_DISABLE_SLEEPING))
         if body.mass > 0:  # with the mass: pybullet 3.2.7 zeroes a rigid body's mass given the moments alone
             dynamics.update(mass=body.mass, localInertiaDiagonal=list(body.inertia))
         if np.isfinite(body.stiffness):

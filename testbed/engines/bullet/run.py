@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from testbed.effects.wind import WindLaw
+from testbed.engines.bullet.loads import AppliedLoads
 from testbed.engines.bullet.model import build_world, pybullet_version
 from testbed.engines.mujoco.run import energies  # the same formulas as contact_log's
 from testbed.geometry.rotations import rotation_from_quaternion
@@ -122,14 +122,12 @@ def simulate_bullet(scenario: Scenario, *, duration: float | None = None, params
         free_ids = [ids[tr.body_names.index(n)] for n in tr.free_names]
         com_C = np.array([c.com_offset for c in free], dtype=float).reshape(-1, 3)
         index = {bid: i for i, bid in enumerate(ids)}
-        wind = None if scenario.effects.wind is None else WindLaw(
-            scenario.effects.wind, np.array([c.container_type().size for c in free], dtype=float).reshape(-1, 3))
+        inertia = np.array([params_of[c.name].inertia for c in free], dtype=float).reshape(-1, 3)
+        loads = AppliedLoads(scenario, free, free_ids, com_C, inertia, h, pb, cid)  # wind, deck, crane (loads.py)
         states, rows, stepping, diverged, steps_done = [_state(pb, cid, free_ids, com_C)], [], 0.0, False, 0
         for i in range(n_steps):
-            if wind is not None:  # at C, the geometric centre (testbed/effects/wind.py); cleared by each step
-                p_WC, q, _ = states[-1]
-                for bid, f_W, p in zip(free_ids, wind.forces_W(rotation_from_quaternion(q), i * h), p_WC):
-                    pb.applyExternalForce(bid, -1, list(f_W), list(p), pb.WORLD_FRAME, physicsClientId=cid)
+            if loads.active:  # from the step's start state; pybullet clears them after each step
+                loads.apply(i * h, *states[-1])
             t0 = time.perf_counter()
             pb.stepSimulation(physicsClientId=cid)
             stepping += time.perf_counter() - t0
@@ -158,6 +156,7 @@ def simulate_bullet(scenario: Scenario, *, duration: float | None = None, params
         "wall_time_s": stepping, "wall_per_sim_s": stepping / sim_time if sim_time > 0 else float("nan"),
         "max_penetration_m": float(max(0.0, -table["phi"].min())) if len(table["phi"]) else 0.0,
         "energy_drift_J": float(energy[-1] - energy[0]),
+        "crane_release_time_s": loads.release_time,
     }
     steps = {"step": k, "time": k * h, "p_WB": p, "q_WB": q, "V_WB": V, "kinetic_energy": kinetic,
              "potential_energy": potential}
