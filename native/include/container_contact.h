@@ -22,7 +22,7 @@
 extern "C" {
 #endif
 
-#define CC_ABI_VERSION 1
+#define CC_ABI_VERSION 2 /* 2: cc_step_sleep gained pair_reuse */
 #define CC_MAX_LAYERS 8      /* hidden + output layers of one network */
 #define CC_MAX_DOMAIN 11     /* the resting expert's gate bounds */
 

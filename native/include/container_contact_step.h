@@ -170,6 +170,13 @@ int cc_step_held_set(cc_step *step, size_t s, const int64_t *keys, const double 
  *     (cc_step_sleep_wake: a rope or another external force changes). A woken island whose
  *     bodies are still at rest falls asleep again at once at its new poses, so a reused answer
  *     is never from poses further than eps_p / eps_R from the current ones.
+ * Pair reuse (pair_reuse = 1; off unless set): besides the asleep islands, a candidate pair of
+ * an awake island whose answer was kept at the previous step reuses it when B's pose in A is
+ * within eps_p at any point of B's box (|dp_AB| + angle x B's half diagonal) and eps_R in angle
+ * of the pose that answer was asked at (half the relative motion island sleeping allows: each
+ * of its two bodies may move eps_p), unless the host woke one of its bodies since. The answer
+ * is a function of the pair's relative pose alone, so the bound holds at any speed; a moving
+ * pair is asked again as soon as it has moved that far.
  * The sleeping state lives in the step (not in cc_step_held_get's held state): cc_step_forget
  * and cc_step_sleep_reset clear it. */
 typedef struct cc_step_sleep {
@@ -179,12 +186,13 @@ typedef struct cc_step_sleep {
   double t_sleep; /* [s] time at rest before an island sleeps (>= 0) */
   double eps_p;   /* [m] largest motion of any point of a sleeping body before its island wakes (>= 0) */
   double eps_R;   /* [rad] largest rotation of a sleeping body before its island wakes (>= 0) */
+  int pair_reuse; /* 1 = pair reuse (above) too; 0 = island sleeping alone */
 } cc_step_sleep;
 
 /* The latest step's sleeping figures. */
 typedef struct cc_step_sleep_counts {
   size_t asked;          /* candidate pairs the predictor was asked about */
-  size_t reused;         /* candidate pairs that reused their last answer (asleep) */
+  size_t reused;         /* candidate pairs that reused their last answer (asleep, or by pair reuse) */
   size_t islands;        /* islands with at least one candidate pair */
   size_t islands_asleep; /* of those, asleep */
   size_t bodies_asleep;  /* free bodies in asleep islands (those with a candidate pair) */

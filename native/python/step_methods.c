@@ -351,21 +351,23 @@ static PyObject *py_step_counts(PyObject *self, PyObject *const *args, Py_ssize_
   return Py_BuildValue("(nn)", (Py_ssize_t)view.n_broad, (Py_ssize_t)view.n);
 }
 
-/* step_set_sleep(step, (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R)) (cc_step_set_sleep) */
+/* step_set_sleep(step, (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R[, pair_reuse])) (cc_step_set_sleep) */
 static PyObject *py_step_set_sleep(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
   (void)self;
-  ARGS(2, "step, (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R)");
+  ARGS(2, "step, (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R[, pair_reuse])");
   cc_step *s = step_of(args[0]);
   if (s == NULL) return NULL;
-  PyObject *seq = PySequence_Fast(args[1], "sleep: expected a sequence of 6 numbers");
+  PyObject *seq = PySequence_Fast(args[1], "sleep: expected a sequence of 6 or 7 numbers");
   if (seq == NULL) return NULL;
-  if (PySequence_Fast_GET_SIZE(seq) != 6) {
+  Py_ssize_t count = PySequence_Fast_GET_SIZE(seq);
+  if (count != 6 && count != 7) {
     Py_DECREF(seq);
-    PyErr_SetString(PyExc_ValueError, "sleep: expected 6 numbers (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R)");
+    PyErr_SetString(PyExc_ValueError,
+                    "sleep: expected 6 or 7 numbers (enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R[, pair_reuse])");
     return NULL;
   }
-  double x[6];
-  for (int i = 0; i < 6; ++i) {
+  double x[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  for (Py_ssize_t i = 0; i < count; ++i) {
     x[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
     if (x[i] == -1.0 && PyErr_Occurred()) {
       Py_DECREF(seq);
@@ -373,7 +375,7 @@ static PyObject *py_step_set_sleep(PyObject *self, PyObject *const *args, Py_ssi
     }
   }
   Py_DECREF(seq);
-  cc_step_sleep q = {x[0] != 0.0, x[1], x[2], x[3], x[4], x[5]};
+  cc_step_sleep q = {x[0] != 0.0, x[1], x[2], x[3], x[4], x[5], x[6] != 0.0};
   if (cc_step_set_sleep(s, &q) != CC_OK) {
     status_error(CC_BAD_ARGUMENT, "step_set_sleep (v_sleep, w_sleep, t_sleep, eps_p, eps_R finite >= 0)");
     return NULL;

@@ -54,6 +54,10 @@ struct cc_step {
   size_t n_cache, cache_cap;
   int64_t *cache_keys;   /* the previous step's candidates' keys, ascending */
   double *cache_ans;     /* (cache_cap, 6) their answers: point_A, normal_A */
+  double *cache_pose;    /* (cache_cap, 12) the pose each was asked at: p_AB (3), R_AB (9) */
+  double *q_pose;        /* (k, 12) the pose this step's answer of each row was asked at */
+  uint8_t *woken;        /* (m) woken by the host since the last plan (no pair reuse) */
+  int planned;           /* cc_step_sleep_plan ran on the current candidates */
   uint8_t *ask;          /* (k) ask the predictor */
   double *q_p, *q_R, *q_sA, *q_sB, *q_pt, *q_nm; /* the asked rows, packed for cc_predict */
   size_t *q_row;         /* (k) each packed row's candidate row */
@@ -99,7 +103,7 @@ void cc_step_free(cc_step *s) {
                    s->size_A, s->size_B, s->point_A, s->normal_A, s->fn, s->f_W, s->p_W, s->n_W, s->area, s->kap,
                    s->held, s->anchors_next, s->stuck_next, s->F_el, s->g, s->W_rr, s->vn0, s->an_ext, s->rA,
                    s->rB, s->cA, s->cB, s->f, s->touch, s->rest, s->asleep, s->p_ref, s->R_ref, s->parent,
-                   s->island, s->cache_keys, s->cache_ans, s->ask, s->q_p, s->q_R, s->q_sA, s->q_sB, s->q_pt,
+                   s->island, s->cache_keys, s->cache_ans, s->cache_pose, s->q_pose, s->woken, s->ask, s->q_p, s->q_R, s->q_sA, s->q_sB, s->q_pt,
                    s->q_nm, s->q_row};
   for (size_t i = 0; i < sizeof owned / sizeof owned[0]; ++i) free(owned[i]);
   free(s);
@@ -125,6 +129,7 @@ void cc_step_sleep_reset(cc_step *s) {
   if (s == NULL) return;
   memset(s->rest, 0, s->m * sizeof(double));
   memset(s->asleep, 0, s->m);
+  memset(s->woken, 0, s->m);
   s->n_cache = 0;
 }
 
@@ -172,7 +177,7 @@ cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params
            resize((void **)&s->box_free, m, 1) && resize((void **)&s->rest, m, sizeof(double)) &&
            resize((void **)&s->asleep, m, 1) && resize((void **)&s->p_ref, 3 * m, sizeof(double)) &&
            resize((void **)&s->R_ref, 9 * m, sizeof(double)) && resize((void **)&s->parent, m, sizeof(size_t)) &&
-           resize((void **)&s->island, m, 1);
+           resize((void **)&s->island, m, 1) && resize((void **)&s->woken, m, 1);
   if (!ok) {
     cc_step_free(s);
     *status = CC_STEP_NO_MEMORY;
@@ -237,6 +242,7 @@ static int reserve_pairs(cc_step *s, size_t n) {
       {(void **)&s->q_p, 3 * sizeof(double)},   {(void **)&s->q_R, 9 * sizeof(double)},
       {(void **)&s->q_sA, 3 * sizeof(double)},  {(void **)&s->q_sB, 3 * sizeof(double)},
       {(void **)&s->q_pt, 3 * sizeof(double)},  {(void **)&s->q_nm, 3 * sizeof(double)},
+      {(void **)&s->q_pose, 12 * sizeof(double)},
   };
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
     if (!resize(arrays[i].ptr, cap, arrays[i].elem)) return 0;
@@ -521,6 +527,7 @@ static void near_pairs(cc_step *s) {
 int cc_step_candidates(cc_step *s, const double *p_WB, const double *R_WB, size_t *n_pairs) {
   if (s == NULL || (s->m > 0 && (p_WB == NULL || R_WB == NULL))) return CC_BAD_ARGUMENT;
   s->have_pairs = 0;
+  s->planned = 0;
   s->k = 0;
   if (s->m > 0) {
     memcpy(s->p, p_WB, 3 * s->m * sizeof(double));
@@ -1032,13 +1039,14 @@ enum { SLEEP_REST = 1, SLEEP_ASLEEP = 2, SLEEP_NEAR = 4, SLEEP_KNOWN = 8, SLEEP_
 
 int cc_step_set_sleep(cc_step *s, const cc_step_sleep *q) {
   if (s == NULL) return CC_BAD_ARGUMENT;
-  cc_step_sleep off = {0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  cc_step_sleep off = {0, 0.0, 0.0, 0.0, 0.0, 0.0, 0};
   if (q == NULL) q = &off;
   const double x[5] = {q->v_sleep, q->w_sleep, q->t_sleep, q->eps_p, q->eps_R};
   for (int i = 0; i < 5; ++i)
     if (!(isfinite(x[i]) && x[i] >= 0)) return CC_BAD_ARGUMENT;
   s->sleep = *q;
   s->sleep.enabled = q->enabled ? 1 : 0;
+  s->sleep.pair_reuse = q->pair_reuse ? 1 : 0;
   cc_step_sleep_reset(s);
   return CC_OK;
 }
@@ -1046,7 +1054,10 @@ int cc_step_set_sleep(cc_step *s, const cc_step_sleep *q) {
 void cc_step_sleep_wake(cc_step *s, size_t n, const int64_t *bodies) {
   if (s == NULL || bodies == NULL) return;
   for (size_t t = 0; t < n; ++t)
-    if (bodies[t] >= 0 && (size_t)bodies[t] < s->m) s->rest[bodies[t]] = 0.0;
+    if (bodies[t] >= 0 && (size_t)bodies[t] < s->m) {
+      s->rest[bodies[t]] = 0.0;
+      s->woken[bodies[t]] = 1;
+    }
 }
 
 void cc_step_sleep_get_counts(const cc_step *s, cc_step_sleep_counts *out) {
@@ -1077,6 +1088,20 @@ static int left_pose(const cc_step *s, size_t i) {
   double sx = M[7] - M[5], sy = M[2] - M[6], sz = M[3] - M[1];
   double angle = asin(py_min(1.0, 0.5 * sqrt(sx * sx + sy * sy + sz * sz)));
   return angle > s->sleep.eps_R || sqrt(d2) + angle * s->radius[i] > s->sleep.eps_p;
+}
+
+/* whether row r's pose (B in A) is within eps_p at any point of B's box and eps_R in angle of
+ * the pose its kept answer was asked at (q_pose, filled from the cache) */
+static int near_asked_pose(const cc_step *s, size_t r) {
+  const double *p = s->p_AB + 3 * r, *R = s->R_AB + 9 * r, *p0 = s->q_pose + 12 * r, *R0 = p0 + 3;
+  double d2 = 0.0, M[9];
+  for (int a = 0; a < 3; ++a) d2 += (p[a] - p0[a]) * (p[a] - p0[a]);
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c) M[3 * i + c] = R[3 * i] * R0[3 * c] + R[3 * i + 1] * R0[3 * c + 1] + R[3 * i + 2] * R0[3 * c + 2];
+  if (M[0] + M[4] + M[8] < 1.0) return 0;
+  double sx = M[7] - M[5], sy = M[2] - M[6], sz = M[3] - M[1];
+  double angle = asin(py_min(1.0, 0.5 * sqrt(sx * sx + sy * sy + sz * sz)));
+  return angle <= s->sleep.eps_R && sqrt(d2) + angle * s->radius[s->ib[r]] <= s->sleep.eps_p;
 }
 
 /* the island (root) a candidate row belongs to; m for a pair of two fixed bodies */
@@ -1130,9 +1155,12 @@ int cc_step_sleep_plan(cc_step *s, const double *w, const double *v, uint8_t *as
     s->island[root] |= SLEEP_PAIRS;
     int64_t key = s->ia[r] * (int64_t)m + s->ib[r];
     while (c < s->n_cache && s->cache_keys[c] < key) ++c;
+    ask[r] = 0; /* here: whether it has a kept answer */
     if (c < s->n_cache && s->cache_keys[c] == key) { /* its last answer, put in place if the island stays asleep */
       memcpy(s->q_pt + 3 * r, s->cache_ans + 6 * c, 3 * sizeof(double));
       memcpy(s->q_nm + 3 * r, s->cache_ans + 6 * c + 3, 3 * sizeof(double));
+      memcpy(s->q_pose + 12 * r, s->cache_pose + 12 * c, 12 * sizeof(double));
+      ask[r] = 1;
     } else {
       s->island[root] &= (uint8_t)~SLEEP_KNOWN;
     }
@@ -1153,9 +1181,14 @@ int cc_step_sleep_plan(cc_step *s, const double *w, const double *v, uint8_t *as
   size_t n = 0;
   for (size_t r = 0; r < k; ++r) {
     size_t root = pair_island(s, r);
-    ask[r] = !(root < m && (s->island[root] & SLEEP_STAYS));
+    int kept = ask[r] && root < m;
+    int reuse = kept && (s->island[root] & SLEEP_STAYS);
+    if (!reuse && kept && q->pair_reuse && !s->woken[s->ia[r]] && !s->woken[s->ib[r]]) reuse = near_asked_pose(s, r);
+    ask[r] = !reuse;
     if (ask[r]) {
       ++n;
+      memcpy(s->q_pose + 12 * r, s->p_AB + 3 * r, 3 * sizeof(double));
+      memcpy(s->q_pose + 12 * r + 3, s->R_AB + 9 * r, 9 * sizeof(double));
     } else {
       memcpy(s->point_A + 3 * r, s->q_pt + 3 * r, 3 * sizeof(double));
       memcpy(s->normal_A + 3 * r, s->q_nm + 3 * r, 3 * sizeof(double));
@@ -1170,6 +1203,8 @@ int cc_step_sleep_plan(cc_step *s, const double *w, const double *v, uint8_t *as
       if (s->island[i] & SLEEP_STAYS) ++s->counts.islands_asleep;
     }
   }
+  memset(s->woken, 0, m);
+  s->planned = 1;
   s->counts.asked = n;
   s->counts.reused = k - n;
   if (n_asked != NULL) *n_asked = n;
@@ -1181,7 +1216,8 @@ static int keep_answers(cc_step *s) {
   if (s->k > s->cache_cap) {
     size_t cap = s->cache_cap ? s->cache_cap : 64;
     while (cap < s->k) cap *= 2;
-    if (!resize((void **)&s->cache_keys, cap, sizeof(int64_t)) || !resize((void **)&s->cache_ans, cap, 6 * sizeof(double)))
+    if (!resize((void **)&s->cache_keys, cap, sizeof(int64_t)) || !resize((void **)&s->cache_ans, cap, 6 * sizeof(double)) ||
+        !resize((void **)&s->cache_pose, cap, 12 * sizeof(double)))
       return 0;
     s->cache_cap = cap;
   }
@@ -1189,6 +1225,12 @@ static int keep_answers(cc_step *s) {
     s->cache_keys[r] = s->ia[r] * (int64_t)s->m + s->ib[r];
     memcpy(s->cache_ans + 6 * r, s->point_A + 3 * r, 3 * sizeof(double));
     memcpy(s->cache_ans + 6 * r + 3, s->normal_A + 3 * r, 3 * sizeof(double));
+    if (s->planned) { /* the pose its answer was asked at (this step's, or the kept one's) */
+      memcpy(s->cache_pose + 12 * r, s->q_pose + 12 * r, 12 * sizeof(double));
+    } else {
+      memcpy(s->cache_pose + 12 * r, s->p_AB + 3 * r, 3 * sizeof(double));
+      memcpy(s->cache_pose + 12 * r + 3, s->R_AB + 9 * r, 9 * sizeof(double));
+    }
   }
   s->n_cache = s->k;
   return 1;

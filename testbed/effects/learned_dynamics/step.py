@@ -125,7 +125,12 @@ class SleepingConfig:
       the contact point of a flat face pair is the pressure centroid, which a relative tilt t
       moves by t L^2 / (12 d) (face length L, penetration d: 2e4 m/rad for a settled 20 ft
       stack, L = 6.06 m, d = 0.16 mm): 2 eps_R keeps that under 4 cm there, and the tilt an
-      asleep island may take without the centroid's restoring moment to 2e-6 rad."""
+      asleep island may take without the centroid's restoring moment to 2e-6 rad.
+    pair_reuse: off by default. On, an awake pair also reuses its kept answer while B's pose in A
+      stays within eps_p (any point) and eps_R of the pose that answer was asked at (half what an
+      asleep island allows), at any speed (container_contact_step.h). A still-settling yard
+      (the scale study's 1,000-container window, 1e-2 m/s) would reuse 98 % of its asks; it is
+      off because it changes when pairs are asked (the island counts the sleeping tests pin)."""
 
     enabled: bool = True
     v_sleep: float = 1e-3
@@ -133,11 +138,13 @@ class SleepingConfig:
     t_sleep: float = 0.3
     eps_p: float = 1e-4
     eps_R: float = 1e-6
+    pair_reuse: bool = False
 
     def as_tuple(self) -> tuple:
-        """(enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R) for the native step."""
-        return (float(bool(self.enabled)), float(self.v_sleep), float(self.w_sleep), float(self.t_sleep),
-                float(self.eps_p), float(self.eps_R))
+        """(enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R[, 1.0 with pair_reuse]) for the native step."""
+        figures = (float(bool(self.enabled)), float(self.v_sleep), float(self.w_sleep), float(self.t_sleep),
+                   float(self.eps_p), float(self.eps_R))
+        return figures + (1.0,) if self.pair_reuse else figures
 
 
 class ContactStep:
@@ -170,6 +177,7 @@ class ContactStep:
         self.sleeping = getattr(config, "sleeping", None) or SleepingConfig()
         native.step_set_sleep(self._core, self.sleeping.as_tuple())
         self._seconds = np.zeros(3)
+        self.k = 0  # the latest step's candidate pairs
         self.reset_costs()
 
     # ------------------------------------------------------------------ costs
@@ -205,6 +213,7 @@ class ContactStep:
     def forget(self) -> None:
         """No pair held, no body's last step, every body awake (as before the first step)."""
         _native.step_forget(self._core)
+        self.k = 0
 
     def no_history(self) -> tuple:
         """The held state before the first step: (keys (0,), rows (0, ROW), history (m, BODY) NaN)."""
@@ -231,12 +240,13 @@ class ContactStep:
                               np.ascontiguousarray(rows, dtype=float), np.ascontiguousarray(history, dtype=float))
 
     # ------------------------------------------------------------------ the step
-    def step(self, p, R, w, v, held: tuple | None = None) -> tuple[np.ndarray, StepPairs]:
+    def step(self, p, R, w, v, held: tuple | None = None, read: bool = True) -> tuple[np.ndarray, StepPairs | None]:
         """One step at body-origin positions p (m, 3) [m], rotations R_WB (m, 3, 3) and
         velocities w, v (m, 3) [rad/s, m/s] in W (float64, C-contiguous). held: the held state
         to start from (None: the step's own, left by its last call). Returns (wrench (m, 6)
         [N m, N]: torque about each body origin and force, in W; the StepPairs of the
-        candidates). Raises the predictor's error for a pose it refuses."""
+        candidates, or None with read=False: a host that needs them only on some steps reads
+        them with pairs() before the next step). Raises the predictor's error for a pose it refuses."""
         core = self._core
         if held is not None:
             self.set_held(held)
@@ -246,12 +256,13 @@ class ContactStep:
             k = _native.step_contact(core, self.model, p, R, w, v, wrench, self._seconds)
             if isinstance(k, tuple):
                 self._refused(*k)
-            pairs = self._read(k)
+            self.k = k
+            pairs = self._read(k) if read else None
             t3 = time.perf_counter()
             # the core's split of its own time; the reading of the records joins the law's share
             self.cost[:3] += (self._seconds[0], self._seconds[1], t3 - t0 - self._seconds[0] - self._seconds[1])
         else:
-            k = _native.step_candidates(core, p, R)
+            k = self.k = _native.step_candidates(core, p, R)
             pairs = self._read(k, law=False)
             ask = np.ones(k, np.uint8)
             n_ask = _native.step_sleep_plan(core, w, v, ask)  # asleep rows: their last answers in the step
@@ -278,6 +289,17 @@ class ContactStep:
             self.cost[4] += 1
         self.cost[5:] += (asked, reused, islands, islands_asleep, bodies_asleep)
         return wrench, pairs
+
+    def pairs(self) -> StepPairs:
+        """The latest step's candidate pairs (valid until the next step; see step(read=False))."""
+        return self._read(self.k)
+
+    def touching(self) -> tuple:
+        """(ia, ib, fn) of the latest step's candidate pairs (valid until the next step)."""
+        k = self.k
+        ia, ib, fn = np.empty(k, np.int64), np.empty(k, np.int64), np.empty(k)
+        _native.step_read(self._core, ia, ib, None, None, None, None, None, None, fn, None, None, None, None)
+        return ia, ib, fn
 
     def _read(self, k: int, law: bool = True) -> StepPairs:
         """The latest step's k pairs as fresh arrays (the records keep references to them)."""

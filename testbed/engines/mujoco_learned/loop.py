@@ -35,8 +35,9 @@ Drake-hosted loop does; compare judges it against Drake at that modulus.
 
 Costs (summary['cost'], [s] over the timed steps): mujoco_s (mj_step1 + mj_step2), broad_s
 (state extraction, broad phase, near pairs, gather), predict_s (the predictor's call),
-law_s (force law, anchors, xfrc_applied), effects_s (wind, the crane's ropes). Recording is
-timed apart.
+law_s (force law, anchors, xfrc_applied), effects_s (wind, the crane's ropes). Recording (the
+quay rows, and the learned pairs' records, read from the step only on recorded steps) is timed
+apart.
 """
 
 from __future__ import annotations
@@ -169,13 +170,21 @@ class LearnedContact:
         # the one contact step of both hosts; it keeps the held state between steps
         self.step = ContactStep(self.size, self.free, self.mass, self.I_Bo, self.type_index, self.kappa_tt, self.cfg,
                                 self.mu, self.h, self.predictor, NEAR)
-        self.last = None  # the latest step's candidate pairs (step.StepPairs), None when there were none
+        self._last = None  # the latest step's candidate pairs once read (see last)
         self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
 
     def reset(self) -> None:
         """Forgets the held state (no pair held, no body's last step) and the latest pairs."""
         self.step.forget()
-        self.last = None
+        self._last = None
+
+    @property
+    def last(self):
+        """The latest step's candidate pairs (step.StepPairs), None when there were none; read
+        from the step on first use (apply does not read them: most steps need none of them)."""
+        if self._last is None and self.step.k:
+            self._last = self.step.pairs()
+        return self._last
 
     def state(self, data) -> tuple:
         """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
@@ -184,10 +193,10 @@ class LearnedContact:
 
     def touching(self, container: int) -> bool:
         """Whether container (scene index) was in learned contact at the latest step."""
-        if self.last is None:
+        if not self.step.k:
             return False
-        last = self.last
-        return bool(np.any(((last.ia == container) | (last.ib == container)) & (last.fn > 0)))
+        ia, ib, fn = self.step.touching() if self._last is None else (self._last.ia, self._last.ib, self._last.fn)
+        return bool(np.any(((ia == container) | (ib == container)) & (fn > 0)))
 
     def apply(self, data) -> None:
         """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs."""
@@ -195,12 +204,13 @@ class LearnedContact:
         p, R, w, v = self.state(data)
         t1 = time.perf_counter()
         before = self.step.cost.copy()
-        wrench, pairs = self.step.step(p, R, w, v)
+        wrench, _ = self.step.step(p, R, w, v, read=False)
         wrench_to_mujoco(data, wrench, self.body, self.free)
-        self.last = pairs if len(pairs) else None
+        self._last = None
         t2 = time.perf_counter()
         spent = self.step.cost - before
-        # broad_s: the state and the candidates; predict_s: the predictor; law_s: the rest (law, records, xfrc)
+        # broad_s: the state and the candidates; predict_s: the predictor; law_s: the rest (law, xfrc); the
+        # pairs' records are read only when asked for (last, touching, rows: recording is timed apart)
         self.costs[:3] += (t1 - t0 + spent[0], spent[1], t2 - t1 - spent[0] - spent[1])
         self.costs[3] += 1
         self.costs[4:] += spent[4:6]  # predict_calls, predict_pairs (step.costs(): the sleeping counts after)
