@@ -70,6 +70,9 @@ def advance(simulator, times, on_sample, *, positions=None) -> tuple[float, Fail
     return wall, None
 
 
+RUN_EVENTS = ("crane_release_time_s",)  # the run summary's keys a Trajectory keeps (Trajectory.events)
+
+
 @dataclasses.dataclass
 class Trajectory:
     """Recorded states of one run (n records, m free containers; shapes in the module doc)."""
@@ -86,6 +89,9 @@ class Trajectory:
     names: tuple = ()
     # a learned run's LearnedDynamics.costs() over the timed steps (testbed/compare/costs.py); else {}
     costs: dict = dataclasses.field(default_factory=dict)
+    # what the run decided that its states do not hold, RUN_EVENTS keys: crane_release_time_s [s] when the
+    # twistlocks released (None: held throughout); a key absent: not recorded (testbed/compare/external_work.py)
+    events: dict = dataclasses.field(default_factory=dict)
 
     @classmethod
     def from_steps(cls, steps: dict, every: int, summary: dict, error: str, names) -> "Trajectory":
@@ -97,7 +103,7 @@ class Trajectory:
         return cls(time=steps["time"][keep], p_WB=steps["p_WB"][keep], q_WB=steps["q_WB"][keep],
                    V_WB=steps["V_WB"][keep], energy=energy[keep], potential=steps["potential_energy"][keep],
                    wall_s=summary["wall_time_s"], simulated_s=summary["steps"] * summary["time_step_s"], error=error,
-                   names=tuple(names))
+                   names=tuple(names), events={k: summary[k] for k in RUN_EVENTS if k in summary})
 
 
 def start(scene: BuiltScene):
@@ -139,7 +145,8 @@ def record_run(scene: BuiltScene, duration: float, every: int) -> Trajectory:
     return Trajectory(np.array(t), np.array(p).reshape(-1, m, 3), np.array(q).reshape(-1, m, 4),
                       np.array(V).reshape(-1, m, 6), np.array(E), np.array(PE), wall, t[-1],
                       failure.describe() if failure else "", tuple(scene.free_names),
-                      system.costs() if system is not None else {})
+                      system.costs() if system is not None else {},
+                      {k: v for e in scene.effects.values() if hasattr(e, "run_events") for k, v in e.run_events(context).items()})
 
 
 @dataclasses.dataclass

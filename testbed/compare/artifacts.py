@@ -23,8 +23,9 @@ def write_series(path, runs: dict, under_test: str = "learned", scenario=None) -
     for kind, t in runs.items():
         arrays.update({f"{kind}_time": t.time, f"{kind}_p_WB": t.p_WB, f"{kind}_q_WB": t.q_WB,
                        f"{kind}_V_WB": t.V_WB, f"{kind}_energy": t.energy})
-        if laws is not None:
-            arrays[f"{kind}_external_work"] = external_work(laws, t)
+        work = None if laws is None else external_work(laws, t)  # None: an actor's stop time unknown
+        if work is not None:
+            arrays[f"{kind}_external_work"] = work
     if laws is not None:
         arrays["external_actors"] = np.array([name for name, _ in laws], dtype=str)
     n = len(runs[under_test].time)

@@ -187,6 +187,31 @@ class RopeModel:
         return float(np.einsum("ij,ij->", f, np.asarray(v_WBo) + np.cross(w_WB, p_BoC_W)))
 
 
+class RopePower:
+    """The ropes' power [W] on container i of a record, power(t, p, R, v, w) (CraneEffect.external_power),
+    while the twistlocks hold; until(events) [s]: when the ropes stop pulling in a run whose
+    Trajectory.events are `events`. Every engine decides the release at a step's start, from its
+    state and the previous step's contacts, and applies it from the next step (CraneSystem's
+    unrestricted update, engines/mujoco/crane.py, engines/bullet/loads.py), so the ropes pull
+    through the step that starts at the recorded crane_release_time_s: until = it + the plant's
+    step h (inf: held throughout); unrecorded, the scheduled release_time + h, else None (a release
+    on seating the records do not hold: the work is not known)."""
+
+    EVENT = "crane_release_time_s"
+
+    def __init__(self, ropes: RopeModel, i: int, scheduled: float | None, step: float):
+        self.ropes, self.i, self.scheduled, self.step = ropes, i, scheduled, step
+
+    def __call__(self, t, p, R, v, w) -> float:
+        return self.ropes.power_W(t, R[self.i], p[self.i], v[self.i], w[self.i])
+
+    def until(self, events: dict) -> float | None:
+        released = events[self.EVENT] if self.EVENT in events else self.scheduled
+        if self.EVENT in events and released is None:
+            return math.inf
+        return None if released is None else float(released) + self.step
+
+
 class CraneSystem(LeafSystem):
     def __init__(self, assembly, config: CraneConfig):
         super().__init__()
@@ -220,6 +245,11 @@ class CraneSystem(LeafSystem):
     def sheaves_W(self, t: float) -> np.ndarray:
         """(4, 3) sheave positions [m] at time t."""
         return self._ropes.sheaves_W(t)
+
+    def release_time_s(self, root_context) -> float | None:
+        """[s] when the twistlocks released in the run of `root_context` (the diagram's), None: locked."""
+        released = self.GetMyContextFromRoot(root_context).get_abstract_state(0).get_value()
+        return None if released < 0 else float(released)
 
     @property
     def profile_end_s(self) -> float:
@@ -314,18 +344,18 @@ class CraneEffect(Effect):
                             "degrees of a multiple of 90")
 
     def external_power(self):
-        """The ropes' power [W] on the carried container as a function of a record (t [s], p_WB
-        (m, 3) [m], R_WB (m, 3, 3), v_WB (m, 3) [m/s] body-origin velocities, w_WB (m, 3) [rad/s]
-        of the free containers in scene order, in W), zero from the scheduled release on; None
-        when the twistlocks release on seating: that release is an event of the run (its
-        contact), not a function of the recorded state, so the records cannot say when the
-        ropes stopped pulling."""
-        if self.config.release_time is None:
-            return None
+        """The ropes' power [W] on the carried container as a function of a record (RopePower: t [s],
+        p_WB (m, 3) [m], R_WB (m, 3, 3), v_WB (m, 3) [m/s] body-origin velocities, w_WB (m, 3) [rad/s]
+        of the free containers in scene order, in W), counted up to the run's own release (its
+        `until`: after the step at the run's recorded crane_release_time_s, else the scheduled one's)."""
         free = [c for c in self.scenario.containers if not c.fixed]
         i = [c.name for c in free].index(self.config.container)
-        ropes, release = RopeModel(self.config, free[i]), self.config.release_time
-        return lambda t, p, R, v, w: 0.0 if t >= release else ropes.power_W(t, R[i], p[i], v[i], w[i])
+        return RopePower(RopeModel(self.config, free[i]), i, self.config.release_time, self.scenario.plant.time_step)
+
+    def run_events(self, root_context) -> dict:
+        """The run's events for its Trajectory (testbed.simulation.RUN_EVENTS): when the twistlocks
+        released [s] (None: held), read from the CraneSystem's state in the diagram's `root_context`."""
+        return {"crane_release_time_s": self.crane.release_time_s(root_context)}
 
     def add_systems(self, assembly) -> list:
         self.crane = CraneSystem(assembly, self.config)

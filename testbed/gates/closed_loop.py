@@ -30,8 +30,9 @@ integrated from each run's own records by the laws the simulation applies
 (testbed/compare/external_work.py; tests/closed_loop/test_external_work.py checks C against friction's
 dissipation and against 0 where nothing dissipates). The learned run's C may exceed 0 only where the
 truth's does at the same t (its own discrete step's O(h) error): gated is max_t C_learned(t) -
-max(0, C_truth(t)). Where W cannot be had from the records (a crane whose twistlocks release on
-seating), the truth's E(t) - E(0), where positive, stands for it.
+max(0, C_truth(t)). A crane's ropes do work until its twistlocks release (each run's own release
+time, Trajectory.events); where W cannot be had from the records (a record without that time),
+the truth's E(t) - E(0), where positive, stands for it.
 """
 
 from __future__ import annotations
@@ -195,8 +196,8 @@ def energy_created(learned_energy, truth_energy, work=None) -> float:
     testbed/compare/external_work.py). Passive contact has C <= 0; the truth's positive C (its
     discrete step's own creation and the error of sampling the actors' power at the record
     period, both measured in tests/closed_loop/test_external_work.py) is allowed the learned run
-    at the same t. work None (an actor the records cannot evaluate: a crane whose twistlocks
-    release on seating): W is not known and the truth's E(t) - E(0), where positive, stands for
+    at the same t. work None (an actor the records cannot evaluate: a crane whose release time
+    the run did not record): W is not known and the truth's E(t) - E(0), where positive, stands for
     it (the rule before the work was counted). Non-finite (a failed run): inf."""
     E, E_T = np.asarray(learned_energy, float), np.asarray(truth_energy, float)
     W, W_T = (np.zeros_like(E), np.zeros_like(E_T)) if work is None else (np.asarray(w, float) for w in work)

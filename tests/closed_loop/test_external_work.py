@@ -14,12 +14,15 @@ question, Drake's discrete plant alone (~20 s):
 and the gate built on C fails a learned run that creates energy while an actor does work.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from testbed.builder import build_scene
 from testbed.compare import artifacts
 from testbed.compare.external_work import external_work, power_laws
+from testbed.engines.mujoco.run import simulate_mujoco, trajectory_of
 from testbed.gates import closed_loop as cl
 from testbed.scenario import load_scenario, resolve_scene_path
 from testbed.simulation import record_run
@@ -63,6 +66,24 @@ effects:
     moves:
     - {{kind: trolley, target: 0.3, speed: 0.6, acceleration: 1.0}}
     - {{kind: hoist, target: -0.5, speed: 0.5, acceleration: 1.0}}
+"""
+# a 20 t box 0.3 m above the quay, lowered 0.5 m at 1 m/s: it lands and is released when seated
+LANDING = """name: crane_landing
+duration: 1.0
+plant: {time_step: 0.001}
+containers:
+- name: load
+  type: 1CC
+  mass: 20000.0
+  X_WC: {translation: [0.0, 0.0, 1.5955]}
+effects:
+  contact: {model: hydroelastic_with_fallback, approximation: auto}
+  friction: {}
+  crane:
+    container: load
+    trolley_height: 6.0
+    moves:
+    - {kind: hoist, target: 0.5, speed: 1.0, acceleration: 2.0}
 """
 
 
@@ -127,27 +148,60 @@ def test_the_record_period_costs_the_work_little():
     assert np.max(np.abs(work1[::10] - work10)) <= 1e-4 * np.max(np.abs(work1))
 
 
-def test_a_crane_releasing_on_seating_is_not_counted_from_records():
-    """A crane whose twistlocks release when the load is seated (an event of the run's contact)
-    has no power law on records: the writer leaves the work out and the gate keeps the rule
-    before it (the truth's E(t) - E(0) where positive); a scheduled release is counted."""
-    assert power_laws(load_scenario(resolve_scene_path("crane_hard_landing"))) is None
+def test_a_crane_releasing_on_seating_counts_its_ropes_up_to_the_recorded_release():
+    """Every crane's ropes have a power law now; a crane whose twistlocks release on seating
+    stops it at the run's own release (Trajectory.events, recorded by every engine): records
+    without that event (refused_run's, an older writer's) give no W and the gate keeps the rule
+    before it."""
+    laws = power_laws(load_scenario(resolve_scene_path("crane_hard_landing")))
+    assert [n for n, _ in laws] == ["crane"]
     assert [n for n, _ in power_laws(load_scenario(resolve_scene_path("yard_swing_strike")))] == ["crane"]
     assert power_laws(load_scenario(resolve_scene_path("two_stack"))) == []
-
-
-def test_the_records_carry_the_work_the_gate_reads(tmp_path):
-    """write_series, given the scene that ran, writes each run's W beside its energy; the gate
-    reads it (counted, and a run against itself creates nothing: 0 J, at t = 0). A scene whose
-    crane releases on seating gets no W: the gate keeps the rule before it."""
     scenario = load_scenario(resolve_scene_path("quay_wind_slide"))
-    traj, work, _ = run(scenario)
-    for name, scene in (("wind", scenario), ("seated", load_scenario(resolve_scene_path("crane_hard_landing")))):
-        (d := tmp_path / name).mkdir()
-        artifacts.write_series(d / "trajectories.npz", {"truth": traj, "learned": traj}, scenario=scene)
-        f = cl.series_figures(d)
-        assert f["external_work_counted"] == (name == "wind") and f["energy_gain_gated_J"] == 0.0
-    assert cl.series_figures(tmp_path / "wind")["external_work_max_J"] == pytest.approx(work[-1])
+    traj, _, _ = run(scenario)
+    assert external_work(power_laws(scenario), traj) is not None  # no actor stops: no event needed
+    assert external_work(laws, dataclasses.replace(traj, events={})) is None
+    one = dataclasses.replace(traj, events={}, **{k: getattr(traj, k)[:1] for k in ("time", "p_WB", "q_WB", "V_WB")})
+    assert external_work(laws, one).tolist() == [0.0]  # a run refused at its start: nothing to integrate
+
+
+def test_a_crane_landing_releases_and_its_ropes_stop_working_there(tmp_path):
+    """A 20 t box lowered 0.5 m at 1 m/s onto the quay from 0.3 m above it: it lands at ~0.5 s,
+    the twistlocks open when it is seated (Drake 0.613 s, MuJoCo 0.692 s: their contacts differ)
+    and the ropes (lowering: W = -52 kJ) stop working at that step's end. The contact only
+    dissipates: C(t) <= 1e-4 of |W| (5 J; measured 0.71 J, at t = 0.02 s where the hoist starts:
+    the record period's sampling of the power, both engines) and ends below -5 kJ (the landing's
+    impact; measured -7.0 kJ). W is constant after the release (here the hoist still pays out, so
+    the ropes are slack by then anyway): Drake records the release, MuJoCo's run summary carries it
+    to its Trajectory, write_series counts the work and the gate reads it (the truth against
+    itself: 0 J). A scheduled release at 0.3 s, the ropes taut, shows where they stop:
+    C is continuous across the cut at the release step's end (measured 0.4 J of change over that
+    1 ms step) where one step earlier would jump by the step's rope work (-95 J)."""
+    scenario = load_scenario(text=LANDING)
+    laws = power_laws(scenario)
+    runs = {"truth": run(scenario)[0], "mujoco": trajectory_of(simulate_mujoco(scenario), 10)}
+    for kind, traj in runs.items():
+        released = traj.events["crane_release_time_s"]
+        assert 0.45 < released < 0.75, kind
+        work = external_work(laws, traj)
+        created = traj.energy - traj.energy[0] - work
+        assert work[-1] < -4e4 and np.max(created) <= 1e-4 * np.max(np.abs(work)), (kind, np.max(created))
+        assert created[-1] < -5e3, kind
+        after = traj.time >= released + scenario.plant.time_step
+        assert np.all(work[after] == work[after][0]), kind
+    artifacts.write_series(tmp_path / "trajectories.npz", {"truth": runs["truth"], "learned": runs["truth"]},
+                           scenario=scenario)
+    f = cl.series_figures(tmp_path)
+    assert f["external_work_counted"] and f["energy_gain_gated_J"] == 0.0
+    assert f["energy_created_truth_max_J"] <= 1e-4 * f["external_work_max_J"]
+
+    scheduled = load_scenario(text=LANDING.replace("moves:", "release_time: 0.3\n    moves:"))
+    traj, work, created = run(scheduled, every=1)
+    assert traj.events["crane_release_time_s"] == pytest.approx(0.3)
+    i = int(np.searchsorted(traj.time, 0.3 - 1e-9))
+    assert abs(created[i + 1] - created[i]) < 5.0  # [J] the release step's rope work is counted
+    early = external_work(power_laws(scheduled), dataclasses.replace(traj, events={"crane_release_time_s": 0.299}))
+    assert early[i + 1] - work[i + 1] > 50.0  # one step short: that step's (negative) rope work left out
 
 
 def _records(path, learned_energy, truth_energy, work=None):
