@@ -22,11 +22,23 @@ castings are locked, at t = 0, to the container they sit on (its top face within
 corner inside its footprint) or to the deck: a stiff spring-damper in shear and in tension
 only; contact still carries compression (so a learned contact model is still asked).
 Stiffness 5e7 N/m per lock: a twistlock and its corner castings stretch a few mm at their
-250 kN working load (ISO 1161 / class rules), i.e. 5e7 - 1e8 N/m; the lower end of that range
-keeps the explicit spring (computed from the state at each step's start) well inside its
-stability limit h sqrt(4 k / m) < 2 at 1 ms for an empty 20 ft box (0.43 at 2200 kg; `check`
-refuses a scene whose lightest locked body exceeds 1). Damping 2e5 N s/m per lock: about 0.2
-of critical for an empty 20 ft box on four locks (explicit limit 4 c h / m < 2: 0.36).
+250 kN working load (ISO 1161 / class rules), i.e. 5e7 - 1e8 N/m. The springs and dampers are
+explicit (computed from the state at each step's start): each of the locks' modes, stiffness
+k S and damping c S over the mass matrix M (S: the unit lock stiffness, the same pattern for
+both), is stable at the step h while h sqrt(k mu) < 2 and c h mu < 2, mu its generalized
+eigenvalue S v = mu M v; `check` refuses a scene past 1 in either (a margin of 2) in any mode
+(lock_mode_rates: the locks' graph at t = 0, the scene's mass properties). One body on its
+four deck locks at (+-a, +-b) below its COM: translation mu = 4/m; yaw mu = 4 (a^2 + b^2) / I_zz
+= 12/m for a uniform box (I_zz = m (a^2 + b^2) / 3), roll/pitch (rocking on the locks'
+tension, coupled with sway by their shear at the lever h/2) 14.4/m for a 20 ft box. A stack of
+n locked tiers multiplies these by its chain factor (1 on the deck, (3 + sqrt 5)/2 = 2.62 for
+2 equal tiers, approaching 4): an empty 20 ft box (2200 kg) at 1 ms has h sqrt(k mu) = 0.30
+(translation), 0.52 (yaw), 0.57 (roll/pitch) on the deck, yaw 0.85 two high, 0.98 four high
+and 1.03 ten high (refused). Damping 4.5e4 N s/m per lock: c h mu = 12 c h / m x 4 = 0.98 for
+the yaw mode of any stack of empty 20 ft boxes at 1 ms (the old 2e5 had 1.09 for one empty
+box on the deck and 2.86 for two: Bullet diverged there without friction to absorb it;
+ship_bay_large had 1.09); it leaves c / sqrt(k m) = 0.14 of critical for the translational
+mode of an empty 20 ft box on its four locks (0.045 for a 20 t one).
 Adds one system, `deck_loads`.
 """
 
@@ -37,6 +49,7 @@ import typing
 from pathlib import Path
 
 import numpy as np
+import scipy.linalg
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
@@ -65,7 +78,7 @@ class DeckMotionConfig:
     ramp_time: float = 2.0
     twistlocks: str = "open"  # open | locked
     twistlock_stiffness: float = 5.0e7  # [N/m] per lock, shear and tension (module docstring)
-    twistlock_damping: float = 2.0e5  # [N s/m] per lock
+    twistlock_damping: float = 4.5e4  # [N s/m] per lock (module docstring)
 
 
 def deck_top(scenario) -> float | None:
@@ -92,6 +105,70 @@ def build_law(config: DeckMotionConfig, scenario, free_specs, gravity=DRAKE_GRAV
         locks = (to_free, lower_free, p_A, p_B)
     return DeckMotionLaw(motion, gravity, masses, com, inertia, locks,
                          config.twistlock_stiffness, config.twistlock_damping)
+
+
+# Degrees of freedom (per free body: COM translation x y z, rotation x y z, in D) of the locks'
+# modes that _check_lock_stability checks, the largest of each; "coupled": all of them at once.
+LOCK_MODES = {"translation": (0, 1, 2), "yaw": (5,), "roll/pitch": (0, 1, 3, 4), "coupled": tuple(range(6))}
+
+
+def lock_mode_rates(scenario) -> dict:
+    """{mode: mu [1/kg, 1/(kg m^2)]} of LOCK_MODES: the largest generalized eigenvalue of the
+    locks' unit stiffness S (k = 1 N/m) against the free bodies' mass matrix M (mass_properties),
+    linearized at the t = 0 poses, over the mode's degrees of freedom, over every group of
+    bodies the locks join (a stack); the mode's stiffness and damping are k S and c S, so its
+    explicit figures are h sqrt(k mu) and c h mu. Every lock counts in shear and in tension
+    (an upper bound: a tension-only lock adds less). {} without locks."""
+    specs = list(scenario.containers)
+    upper, lower, p_A, _ = find_locks(specs, deck_top(scenario))
+    if not upper.size:
+        return {}
+    group = {j: j for j in set(upper.tolist())}  # union-find over the locks' free bodies
+
+    def root(j):
+        while group[j] != j:
+            j = group[j]
+        return j
+
+    for a, b in zip(upper.tolist(), lower.tolist()):
+        if b >= 0:
+            group[root(a)] = root(b)
+    rates = dict.fromkeys(LOCK_MODES, 0.0)
+    for r in set(root(j) for j in group):
+        bodies = sorted(j for j in group if root(j) == r)
+        for mode, mu in _group_rates(specs, bodies, [(a, b, p) for a, b, p in zip(upper, lower, p_A) if a in bodies]).items():
+            rates[mode] = max(rates[mode], mu)
+    return rates
+
+
+def _group_rates(specs, bodies, locks) -> dict:
+    """lock_mode_rates of one group of free bodies (indices into specs) and its locks (upper,
+    lower index or -1, corner in the upper body's frame C)."""
+    index = {j: i for i, j in enumerate(bodies)}
+    masses, com, inertia = mass_properties([specs[j] for j in bodies])
+    poses = [specs[j].pose() for j in bodies]
+    R = np.array([X.rotation().matrix() for X in poses]).reshape(-1, 3, 3)
+    com_D = np.array([X.translation() for X in poses]).reshape(-1, 3) + np.einsum("kij,kj->ki", R, com)
+    n = len(bodies)
+    M, S = np.zeros((6 * n, 6 * n)), np.zeros((6 * n, 6 * n))
+    for i in range(n):
+        M[6 * i:6 * i + 3, 6 * i:6 * i + 3] = masses[i] * np.eye(3)
+        M[6 * i + 3:6 * i + 6, 6 * i + 3:6 * i + 6] = R[i] @ inertia[i] @ R[i].T
+    for a, b, corner in locks:
+        A = index[a]
+        q = com_D[A] + R[A] @ (corner - com[A])  # the corner, in D
+        J = np.zeros((3, 6 * n))  # the gap's rate from the bodies' COM and angular velocities
+        for body, sign in ((A, 1.0), (index.get(int(b)), -1.0)):
+            if body is not None:  # None: the deck or a fixed body
+                x, y, z = q - com_D[body]
+                J[:, 6 * body:6 * body + 3] += sign * np.eye(3)
+                J[:, 6 * body + 3:6 * body + 6] -= sign * np.array([[0, -z, y], [z, 0, -x], [-y, x, 0]])
+        S += J.T @ J
+    rates = {}
+    for mode, dofs in LOCK_MODES.items():
+        keep = (6 * np.arange(n)[:, None] + np.array(dofs)).ravel()
+        rates[mode] = float(scipy.linalg.eigh(S[np.ix_(keep, keep)], M[np.ix_(keep, keep)], eigvals_only=True)[-1])
+    return rates
 
 
 class DeckLoads(LeafSystem):
@@ -190,19 +267,24 @@ class DeckMotionEffect(Effect):
         return TimeSeries(t, q)
 
     def _check_lock_stability(self) -> None:
-        """Refuses locks too stiff or too damped for the explicit step: h sqrt(4 k / m) <= 1
-        and 4 c h / m <= 1 for the lightest free container (margins of 2 on the limits 2, 2)."""
-        free = [s for s in self.scenario.containers if not s.fixed]
-        if not free:
-            return
-        m = min(s.total_mass() for s in free)
+        """Refuses locks too stiff or too damped for the explicit step, mode by mode (LOCK_MODES,
+        lock_mode_rates): h sqrt(k mu) <= 1 and c h mu <= 1 (margins of 2 on the limits 2, 2)."""
         h, c = self.scenario.plant.time_step, self.config
-        if h * math.sqrt(4 * c.twistlock_stiffness / m) > 1:
-            raise self.fail("twistlock_stiffness", f"{c.twistlock_stiffness:g} N/m is too stiff for the {h:g} s step with "
-                                                   f"a {m:g} kg container; expected at most {m / (4 * h * h):.3g} N/m")
-        if 4 * c.twistlock_damping * h / m > 1:
-            raise self.fail("twistlock_damping", f"{c.twistlock_damping:g} N s/m is too high for the {h:g} s step with "
-                                                 f"a {m:g} kg container; expected at most {m / (4 * h):.3g} N s/m")
+        rates = lock_mode_rates(self.scenario)
+        if not rates:
+            return
+        mu = rates["coupled"]  # the largest: all the degrees of freedom at once
+        mode = max((m for m in rates if m != "coupled"), key=rates.get)
+        mode = mode if rates[mode] >= mu * (1 - 1e-9) else "coupled"
+        if h * math.sqrt(c.twistlock_stiffness * mu) > 1:
+            raise self.fail("twistlock_stiffness", f"{c.twistlock_stiffness:g} N/m is too stiff for the {h:g} s step: "
+                                                   f"the locks' {mode} mode has h sqrt(k mu) = "
+                                                   f"{h * math.sqrt(c.twistlock_stiffness * mu):.3g} > 1; "
+                                                   f"expected at most {1 / (h * h * mu):.3g} N/m")
+        if c.twistlock_damping * h * mu > 1:
+            raise self.fail("twistlock_damping", f"{c.twistlock_damping:g} N s/m is too high for the {h:g} s step: "
+                                                 f"the locks' {mode} mode has c h mu = {c.twistlock_damping * h * mu:.3g} "
+                                                 f"> 1; expected at most {1 / (h * mu):.3g} N s/m")
 
     def external_power(self):
         """The deck's power [W] on the scene's free containers (DeckMotionLaw.power_W: its
