@@ -134,7 +134,8 @@ def host_step(host_size: int = HOST_SIZE, duration: float = 0.05, step_s: float 
     scale study's), 'n', 'host_step_s', 'learned_system_s' [s per step], 'pairs_per_step'};
     'host_step_s' NaN and 'why' set when neither learned loop ran."""
     config = ScaleConfig(sizes=(host_size,), duration=duration, big_duration=duration, time_step=step_s,
-                         models=host_models(), repeats=2, repeat_below_s=1.0, yards=("settled",), passes=1)
+                         models=host_models(), repeats=2, repeat_below_s=1.0, yards=("settled",), passes=1,
+                         settle_s=0.1)  # an awake yard: the budget is for a predictor asked about every touching pair
     why = []
     for task in tasks(config):
         row = run_cell(task)

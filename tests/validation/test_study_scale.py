@@ -162,6 +162,27 @@ def test_the_timed_window_starts_after_the_settling_transient():
     assert 0.0 < sag < 5e-3
 
 
+def test_the_learned_loop_s_window_continues_its_settling_run_with_the_yard_asleep():
+    """The MuJoCo-hosted learned loop's window continues its settling run (window.py): the
+    sleeping islands (asleep after t_sleep = 0.3 s at rest) that fell asleep during the 0.8 s
+    settle are asleep at the window's first step (a fresh run from the settled state restarts
+    their rest timers: none asleep) and ask the predictor nothing while the settled yard rests;
+    in the crane yard the load hangs still through the settling (its island asleep too) and
+    its hoist, starting with the window, wakes its stack's island."""
+    pytest.importorskip("mujoco")
+    config = dataclasses.replace(TINY, sizes=(4,), settle_s=0.8, duration=0.01, models=("mujoco_learned",))
+    settled, crane = (scale.run_cell(t) for t in scale.tasks(config))
+    for row in (settled, crane):
+        assert row["status"] == "ok", row
+        assert row["window_start_s"] == pytest.approx(0.8) and row["steps"] == 10  # the settling's steps are not timed
+        assert row["start_asleep_fraction"] >= 0.9 and row["start_islands_asleep"] == row["start_islands"] >= 1
+        assert row["start_max_speed_mps"] < 1e-3 and row["start_kinetic_J"] < 1e-3 * row["settle_peak_kinetic_J"]
+    assert settled["asleep_fraction"] >= 0.9 and settled["pairs_per_step"] == 0.0 and settled["reused_pairs_per_step"] == 3.0
+    assert crane["pairs_per_step"] > 0  # the load moves: its island asks again
+    # the load hung crane_gap above the stack's top from rest; the stack sagged under its weight meanwhile
+    assert config.crane_gap < crane["start_load_clearance_m"] < config.crane_gap + 5e-3
+
+
 def test_errors_are_against_the_reference_of_the_same_size_yard_and_pass():
     p = np.zeros((2, 3))
     q = np.tile([1.0, 0.0, 0.0, 0.0], (2, 1))

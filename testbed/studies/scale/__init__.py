@@ -4,13 +4,17 @@ engine, timed past the settling transient, and how that cost grows with N.
 For each size N (a yard block of rows x bays x tiers, testbed/bodies/yards.py), each model
 (every registered engine gives its models: settings.py) and each yard kind (settled: nothing
 happens; crane: one load landing on a stack inside the block), one cell settles the yard
-untimed and then times a window from the settled state (cells.py). The report gives the cost
+untimed and then times a window from the settled state (cells.py): the MuJoCo-hosted learned
+loop's window continues its 0.8 s settling run, so that its sleeping islands are asleep when
+the window starts (window.py; each row says what fraction of the yard is), the others' is a
+fresh run from the state a shorter settling run ended in. The report gives the cost
 per step [ms] and x real time per size, and the growth exponent of the cost per step in N per
 model and yard kind, fitted once per pass of the whole grid (fit.py), against the targets of
 targets.py. One job per module:
 
   settings  the models (from the engine registry) and ScaleConfig
   yard      the yard blocks for N: layout, the crane's load and stack, the settled state
+  window    the timed window as the continuation of the settling run (sleeping islands asleep)
   cells     one run per (pass, N, model, yard): settle, then the timed window
   fit       the growth exponent and its spread
   grid      the whole grid as one record (run_study)
@@ -30,7 +34,7 @@ from testbed.studies import register
 from testbed.studies.base import Study, choices
 from testbed.studies.scale.settings import QUICK, ScaleConfig, ScaleConfigError, models
 
-_MODULES = ("settings", "yard", "cells", "fit", "grid", "targets", "report")
+_MODULES = ("settings", "yard", "window", "cells", "fit", "grid", "targets", "report")
 
 
 def _code():
@@ -85,8 +89,11 @@ class ScaleStudy(Study):
         group.add_argument("--sizes", help=f"containers per yard, multiples of --tiers (default {','.join(map(str, d.sizes))}; "
                                            f"--quick {','.join(map(str, QUICK.sizes))})")
         group.add_argument("--tiers", type=int, help=f"tiers of every yard block (default {d.tiers})")
-        group.add_argument("--settle", type=float, help=f"[s] simulated from rest, untimed, before every timed window "
+        group.add_argument("--settle", type=float, help=f"[s] simulated from rest, untimed, before every timed window (the "
+                                                        "MuJoCo-hosted learned loop's window continues that run) "
                                                         f"(default {d.settle_s:g}; --quick {QUICK.settle_s:g})")
+        group.add_argument("--fresh-settle", type=float, help=f"[s] the settle of the models whose window is a fresh run "
+                                                              f"from the settled state, at most --settle (default {d.fresh_settle_s:g})")
         group.add_argument("--big-duration", type=float, help=f"[s] timed window above --big-above containers (default {d.big_duration:g})")
         group.add_argument("--big-above", type=int, help=f"containers above which windows are --big-duration long (default {d.big_above})")
         group.add_argument("--models", help="comma-separated, some of the models every registered engine gives "
@@ -117,7 +124,7 @@ class ScaleStudy(Study):
         if args.caps:
             given["caps"] = _caps(args.caps)
         for option, field in (("tiers", "tiers"), ("duration", "duration"), ("big_duration", "big_duration"),
-                              ("big_above", "big_above"), ("predictor", "predictor"), ("settle", "settle_s"),
+                              ("big_above", "big_above"), ("predictor", "predictor"), ("settle", "settle_s"), ("fresh_settle", "fresh_settle_s"),
                               ("passes", "passes"), ("clock", "clock")):
             if getattr(args, option) is not None:
                 given[field] = getattr(args, option)

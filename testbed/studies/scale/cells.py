@@ -1,10 +1,18 @@
 """The scale study's cells: one run per (pass, N, model, yard kind), timed past the settling.
 
-A cell first SETTLES its yard: the block alone simulated config.settle_s [s] from rest by the
-cell's own engine and model, untimed (settle: cached in this process, so the settled and the
-crane cell of one N and model share it). The timed window then starts from that settled state
-(testbed/studies/scale/yard.py) and lasts config.duration_for(N) [s]; its wall time is the
-stepping alone (Drake's AdvanceTo calls, MuJoCo's mj_step: no recorder, observer or viewer).
+The MuJoCo-hosted learned loop (settings.CONTINUED): one run from rest of config.settle_s
+(untimed), the window (config.duration_for(N) [s], timed inside the run) and one step: the
+window continues the settling run, so the islands asleep at its start stay asleep (window.py:
+how it is clocked, and what the row says of the yard at the window's start, the asleep
+fraction included). The crane's load hangs still through the settling; its hoist starts
+with the window. Its CPU time per step is this process's over the window alone.
+
+Every other model first SETTLES its yard: the block alone simulated config.settle_for(model)
+[s] from rest by the cell's own engine and model, untimed (settle: cached in this process, so
+the settled and the crane cell of one N and model share it). The timed window is then a fresh
+run from that settled state (testbed/studies/scale/yard.py) and lasts config.duration_for(N)
+[s]; its wall time is the stepping alone (Drake's AdvanceTo calls, MuJoCo's mj_step: no
+recorder, observer or viewer).
 The CPU time of this process over the window (less that of a second build and one step) gives a
 second cost per step that other work on a shared machine hardly disturbs (cpu_us_per_step), but
 the spread of the builds' own CPU time does (a large yard's build costs about as much as its window).
@@ -32,6 +40,7 @@ from testbed.engines.base import UnsupportedSceneError
 from testbed.errors import OptionalDependencyError, TestbedError
 from testbed.geometry.rotations import angle_between_quaternions_deg
 from testbed.studies.scale.settings import REFERENCE, ScaleConfig, from_dict, models
+from testbed.studies.scale.window import continued_run
 from testbed.studies.scale.yard import LOAD, SettledState, layout, top_name, yard_scenario
 
 SPLIT = ("engine_step", "learned_system", "predictor")  # the per-step parts [us]
@@ -63,8 +72,9 @@ def settle(config: ScaleConfig, n: int, model: str) -> dict:
     key = (repr(dataclasses.astuple(config)), n, model)
     if key not in _SETTLED:
         spec = models()[model]
-        traj = _run(engines()[spec.engine], spec, yard_scenario(n, config, "settled", duration=config.settle_s),
-                    config.settle_s, config, records=10).trajectory
+        settle_s = config.settle_for(model)
+        traj = _run(engines()[spec.engine], spec, yard_scenario(n, config, "settled", duration=settle_s),
+                    settle_s, config, records=10).trajectory
         V = np.asarray(traj.V_WB[-1], float)
         finite = bool(np.all(np.isfinite(traj.p_WB[-1])) and np.all(np.isfinite(V)))
         state = SettledState(list(traj.names), np.asarray(traj.p_WB[-1]), np.asarray(traj.q_WB[-1]), V,
@@ -81,7 +91,7 @@ def run_cell(task: dict) -> dict:
 
     Returns {'n', 'layout' 'RxBxT', 'model', 'label', 'engine', 'params', 'yard', 'pass',
     'status': 'ok' | 'diverged' | 'refused' | 'unavailable' | 'skipped' (above the model's cap)
-    | 'error', 'why', 'settle_s' [s] untimed before the window, 'window_start_s' [s] simulated
+    | 'error', 'why', 'settle_s' [s] untimed before the window (settle_for), 'window_start_s' [s] simulated
     when the window starts, 'start_max_speed_mps', 'start_kinetic_J' (the yard there),
     'settle_peak_kinetic_J' (the largest kinetic energy recorded while settling),
     'duration_s' [s] of the window, 'simulated_s', 'steps', 'wall_s' (the window's stepping
@@ -91,7 +101,10 @@ def run_cell(task: dict) -> dict:
     machine slows the wall time, hardly the CPU time), 'split_us' {engine_step,
     learned_system, predictor: [us per step]; the last two None where the engine's own contact
     is inside its step}, 'pairs_per_step' (None without a predictor), 'runs' (timed repeats),
-    'version'; crane yards: 'landed' (the load ends within half crane_gap of its stack's top)
+    'version'; a continued window (window.py) adds 'start_asleep_fraction' (free bodies in
+    asleep islands at its start), 'start_islands', 'start_islands_asleep', 'start_asked_pairs',
+    'asleep_fraction' (the window's mean), 'reused_pairs_per_step' and, with the crane,
+    'start_load_clearance_m'; crane yards: 'landed' (the load ends within half crane_gap of its stack's top)
     and 'load_clearance_m'; for the error against the reference 'p_final' (m, 3) [m] and
     'q_final' (m, 4) wxyz of the block's containers at the window's end}."""
     config = from_dict(task["config"])
@@ -100,7 +113,7 @@ def run_cell(task: dict) -> dict:
     spec = models().get(model)
     row = {"n": n, "layout": f"{rows}x{bays}x{tiers}", "model": model, "label": spec.label if spec else model,
            "engine": spec.engine if spec else "", "params": spec.params if spec else None, "yard": yard,
-           "pass": int(task.get("pass", 1)), "settle_s": config.settle_s, "duration_s": config.duration_for(n),
+           "pass": int(task.get("pass", 1)), "settle_s": config.settle_for(model), "duration_s": config.duration_for(n),
            "time_step_s": config.time_step, "why": ""}
     engine = engines().get(spec.engine) if spec else None
     if engine is None:
@@ -113,29 +126,36 @@ def run_cell(task: dict) -> dict:
         if why is not None:
             return {**row, "status": "unavailable", "why": why}
         engine.check(yard_scenario(n, config, yard))
-        settled = settle(config, n, model)
-        row.update(start_max_speed_mps=settled["max_speed_mps"], start_kinetic_J=settled["kinetic_J"],
-                   settle_peak_kinetic_J=settled["peak_kinetic_J"])
-        if settled["state"] is None:
-            return {**row, "status": "diverged", "why": f"while settling: {settled['error']}"}
-        row["window_start_s"] = settled["state"].time
-        scenario = yard_scenario(n, config, yard, state=settled["state"])
-        runs, cpu_window, cpu_base = [], [], []
-        while not runs or (len(runs) < config.repeats and runs[-1].trajectory.wall_s < config.repeat_below_s):
-            start = time.process_time()
-            runs.append(_run(engine, spec, scenario, config.duration_for(n), config))
-            cpu_window.append(time.process_time() - start)
-            start = time.process_time()  # the same build and one step: what the window's CPU time holds besides its steps
-            _run(engine, spec, scenario, config.time_step, config)
-            cpu_base.append(time.process_time() - start)
-        best = min(runs, key=lambda r: r.trajectory.wall_s)
-        version = best.summary.get("version") or (drake_version() if engine.name in ("drake", "learned") else "")
+        if config.continues(model):
+            return _continued(row, engine, spec, n, yard, config)
+        return _fresh(row, engine, spec, n, yard, config)
     except (UnsupportedSceneError, OptionalDependencyError, ImportError) as e:
         return {**row, "status": "unavailable", "why": _line(e)}
     except TestbedError as e:  # the build refused the yard (the learned loop's stability check, ...)
         return {**row, "status": "refused", "why": _line(e)}
     except Exception as e:  # noqa: BLE001 - a crashed cell is a result too
         return {**row, "status": "error", "why": f"{type(e).__name__}: {_line(e)}"}
+
+
+def _fresh(row: dict, engine, spec, n: int, yard: str, config: ScaleConfig) -> dict:
+    """run_cell's row of a window that is a fresh run from the state its settling run ended in."""
+    settled = settle(config, n, row["model"])
+    row.update(start_max_speed_mps=settled["max_speed_mps"], start_kinetic_J=settled["kinetic_J"],
+               settle_peak_kinetic_J=settled["peak_kinetic_J"])
+    if settled["state"] is None:
+        return {**row, "status": "diverged", "why": f"while settling: {settled['error']}"}
+    row["window_start_s"] = settled["state"].time
+    scenario = yard_scenario(n, config, yard, state=settled["state"])
+    runs, cpu_window, cpu_base = [], [], []
+    while not runs or (len(runs) < config.repeats and runs[-1].trajectory.wall_s < config.repeat_below_s):
+        start = time.process_time()
+        runs.append(_run(engine, spec, scenario, config.duration_for(n), config))
+        cpu_window.append(time.process_time() - start)
+        start = time.process_time()  # the same build and one step: what the window's CPU time holds besides its steps
+        _run(engine, spec, scenario, config.time_step, config)
+        cpu_base.append(time.process_time() - start)
+    best = min(runs, key=lambda r: r.trajectory.wall_s)
+    version = best.summary.get("version") or (drake_version() if engine.name in ("drake", "learned") else "")
     out = {**row, **_figures(best.trajectory, config.time_step), "runs": len(runs), "version": version}
     steps = out["steps"]
     cpu = (min(cpu_window) - min(cpu_base)) / (steps - 1) if steps > 1 else math.nan  # [s] per step
@@ -143,6 +163,37 @@ def run_cell(task: dict) -> dict:
                cpu_real_time_factor=config.time_step / cpu if cpu > 0 else math.nan)
     if yard == "crane" and out["status"] == "ok":
         out.update(_landing(best.trajectory, n, config))
+    return out
+
+
+def _continued(row: dict, engine, spec, n: int, yard: str, config: ScaleConfig) -> dict:
+    """run_cell's row of a window that continues its settling run (window.py): one run from rest
+    of settle_s, the window and one step, the window clocked inside it; repeated as _fresh's."""
+    h = config.time_step
+    settle_steps, window_steps = int(round(config.settle_s / h)), int(round(config.duration_for(n) / h))
+    scenario = yard_scenario(n, config, yard, duration=(settle_steps + window_steps + 1) * h, hold=settle_steps * h)
+    crane = (LOAD, top_name(n, config)) if yard == "crane" else None
+    row["window_start_s"] = settle_steps * h
+    best, cpu, runs = None, [], 0
+    while best is None or (runs < config.repeats and best[1]["wall_s"] < config.repeat_below_s):
+        result, figures = continued_run(engine, spec, scenario, settle_steps, window_steps, config, crane, _run)
+        runs += 1
+        if figures is None:
+            return {**row, "status": "diverged", "why": result.trajectory.error, "runs": runs}
+        cpu.append(figures["cpu_s"])
+        if best is None or figures["wall_s"] < best[1]["wall_s"]:
+            best = (result, figures)
+    result, figures = best
+    traj, steps, wall = result.trajectory, figures["steps"], figures["wall_s"]
+    final = _figures(traj, h)  # status and the final state (one step past the window's end)
+    cpu_step = min(cpu) / steps
+    out = {**row, **{k: v for k, v in figures.items() if k != "cpu_s"}, "status": final["status"], "why": final["why"],
+           "wall_per_sim_s": wall / figures["simulated_s"], "real_time_factor": figures["simulated_s"] / wall if wall > 0 else math.inf,
+           "us_per_step": 1e6 * wall / steps, "cpu_us_per_step": 1e6 * cpu_step,
+           "cpu_real_time_factor": h / cpu_step if cpu_step > 0 else math.nan,
+           "p_final": final["p_final"], "q_final": final["q_final"], "runs": runs, "version": result.summary.get("version", "")}
+    if yard == "crane" and out["status"] == "ok":
+        out.update(_landing(traj, n, config))
     return out
 
 

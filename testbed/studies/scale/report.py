@@ -32,15 +32,24 @@ def _key(study: dict) -> str:
     return (f"Yard blocks of {config.container_type} containers, {config.tiers} tiers, {config.row_gap:g} m between rows, "
             f"{config.bay_gap:g} m between bays, masses drawn from {config.mass_range[0]:g}-{config.mass_range[1]:g} kg "
             f"(seed {config.seed}), every model at the learned law's modulus, at a {config.time_step * 1e3:g} ms step. "
-            f"Each run first SETTLES: {config.settle_s:g} s simulated from rest, untimed, by the run's own engine; the "
-            f"timed window starts from that settled state (poses and velocities) and lasts {config.duration:g} s"
+            f"Each run first SETTLES: {config.settle_s:g} s simulated from rest, untimed, by the run's own engine. The "
+            f"MuJoCo-hosted learned loop's timed window CONTINUES that run (one run from rest, the window timed inside it): "
+            "the learned step's sleeping islands (asleep after 0.3 s below 1e-3 m/s) that fell asleep while settling are "
+            "asleep when the window starts (a fresh run would restart their rest timers; the per-size table gives the "
+            "fraction of the yard asleep at the window's start and over the window). Every other model settles "
+            f"{min(config.settle_s, config.fresh_settle_s):g} s and its window is a fresh run from that settled state "
+            "(poses and velocities: Drake's and MuJoCo's own steps keep no sleep state; the Drake-hosted learned loop's "
+            f"islands restart awake). The window lasts {config.duration:g} s"
             + (f" ({config.big_duration:g} s at N = {', '.join(map(str, shorter))}, SHORTER at the big sizes)" if shorter else "")
             + ". The start of the window is checked: the largest container speed and the block's kinetic energy there "
             "(against the largest kinetic energy recorded while settling) are in the per-size table. Yards: settled "
             f"(nothing happens) and crane (a {config.crane_mass / 1e3:g} t {config.crane_type} hanging at rest "
-            f"{config.crane_gap * 1e3:g} mm above the middle stack, lowered at {config.crane_speed:g} m/s and "
+            f"{config.crane_gap * 1e3:g} mm above the middle stack (in a continued run: still through the settling, "
+            "above the stack's top from rest, which sags meanwhile: the gap at the window's start is in the per-size "
+            f"table), lowered at {config.crane_speed:g} m/s and "
             f"{config.crane_acceleration:g} m/s^2 from the window's start: it touches about {config.landing_s() * 1e3:.0f} ms in, "
-            "and lands inside the window). Wall time is the window's stepping alone (no recording); CPU time is this "
+            "later by the sag in a continued run, and lands inside the window). Wall time is the window's stepping alone "
+            "(no recording); CPU time is, in a continued run, this process's over the window's steps alone, else this "
             "process's over the window run less that of a second build and one step, per step: other work on a shared "
             "machine slows the wall time, hardly the CPU time, but the builds' own spread enters it (at N = 1000 a build "
             "costs about as much as the window). Real time: x real time = the step over its cost "
@@ -49,6 +58,13 @@ def _key(study: dict) -> str:
             "error, per pass "
             f"({config.passes} passes of the whole grid)." + (f" Size caps: {caps} (bigger cells skipped: their cost "
                                                              "per step is far above real time)." if caps else ""))
+
+
+def _landed(row: dict) -> str:
+    """Whether the crane's load landed, and its gap above the stack at the window's start where known."""
+    landed = {True: "yes", False: "NO", None: "-"}[row.get("landed")]
+    gap = row.get("start_load_clearance_m")
+    return landed + (f" ({gap * 1e3:.1f} mm gap at start)" if gap is not None and math.isfinite(gap) else "")
 
 
 def report_sections(study: dict) -> list[Section]:
@@ -84,9 +100,10 @@ def report_sections(study: dict) -> list[Section]:
                                                     if cells[p]["status"] == "ok" else cells[p]["status"]
                                                     for p in range(1, config.passes + 1)),
                                  _f(min((r[rtf] for r in ok), default=None), ".2f"),
-                                 _f(first.get("start_max_speed_mps"), ".4f"),
+                                 _f(first.get("start_max_speed_mps"), ".2g"),
                                  f"{_f(first.get('start_kinetic_J'), '.3g')} / {_f(first.get('settle_peak_kinetic_J'), '.3g')}",
-                                 {True: "yes", False: "NO", None: "-"}[first.get("landed")] if y == "crane" else "-"])
+                                 _f(first.get("start_asleep_fraction"), ".2f") + " / " + _f(first.get("asleep_fraction"), ".2f"),
+                                 _landed(first) if y == "crane" else "-"])
     full = []
     for r in rows:
         ok = r["status"] == "ok"
@@ -107,10 +124,13 @@ def report_sections(study: dict) -> list[Section]:
                             table(["target", "measured", "met"], [[x["target"], x["measured"], {True: "yes", False: "NO", None: "-"}[x["met"]]]
                                                                    for x in targets(study)])], order=15),
         Section("Per size", [Text(f"ms per step: CPU / wall time of this process; x real time: the {config.clock} "
-                                  f"time's, at the {config.time_step * 1e3:g} ms step, in the slower pass."),
+                                  f"time's, at the {config.time_step * 1e3:g} ms step, in the slower pass; yard asleep: "
+                                  "the fraction of its free containers in asleep islands of the learned step (continued "
+                                  "windows only), at the window's first step and averaged over the window."),
                              table(["model", "yard", "N", *(f"ms / step, pass {p}" for p in range(1, config.passes + 1)),
                                     "x real time", "max speed at window start [m/s]",
-                                    "kinetic energy at window start / settling peak [J]", "load landed"], per_size)], order=18),
+                                    "kinetic energy at window start / settling peak [J]",
+                                    "yard asleep at window start / window mean", "load landed"], per_size)], order=18),
         Section("Cost per step against N", [Figure("scale_cost.png", "cost per step against yard size, log-log",
                                                    cost_chart(rows, study["fits"], config))], order=20),
         Section("Every cell", [table(["pass", "N", "rows x bays x tiers", "model", "yard", "window [s]", "x real time (wall)",
@@ -175,7 +195,9 @@ def summary_lines(study: dict) -> list[str]:
             big = max(done, key=lambda r: (r["n"], -r[rtf]))
             exps = "/".join(_f(passes[p][y][m]["exponent"], ".2f") for p in sorted(passes))
             lines.append(f"{label(m):26s} {y:8s} N^{exps:10s} {_f(big[key], '9.0f')} us/step ({config.clock}) at N={big['n']:<4d} "
-                         f"({_f(big[rtf], '.2f')}x real time, {h_us:g} us budget)")
+                         f"({_f(big[rtf], '.2f')}x real time, {h_us:g} us budget"
+                         + (f", {big['start_asleep_fraction']:.0%} asleep at the window's start)" if
+                            math.isfinite(big.get("start_asleep_fraction", math.nan)) else ")"))
     return lines
 
 

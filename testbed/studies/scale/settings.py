@@ -27,6 +27,7 @@ from testbed.errors import TestbedError
 
 REFERENCE = "hydroelastic"  # the model every other is judged against: Drake, the yard's own contact model
 YARD_CONTACT = "hydroelastic_with_fallback"  # the yards' contact model (Drake's reference runs)
+CONTINUED = ("mujoco_learned",)  # the engines whose timed window continues the settling run (window.py)
 YARDS = ("settled", "crane")  # the yard kinds: nothing happens / one crane landing a load on a stack
 # the cost per step the fits and targets read: the process's CPU time (robust on a shared machine) or the wall time
 CLOCKS = {"cpu": ("cpu_us_per_step", "cpu_real_time_factor"), "wall": ("us_per_step", "real_time_factor")}
@@ -82,16 +83,29 @@ class ScaleConfig:
     sizes: containers per yard, each a multiple of `tiers` (N = rows x bays x tiers, the stacks
     laid out as square as N allows, rows <= bays); the yard's container type, gaps [m] and
     masses [kg] (drawn uniformly per container with `seed`, heaviest at the bottom of each
-    stack) as testbed/bodies/yards.py. Every run first SETTLES: settle_s [s] simulated from
-    rest, untimed; the timed window then starts from the settled state (every container's
-    pose and velocity at the end of the settling run of the same engine and model) and lasts
-    duration [s] up to `big_above` containers, big_duration [s] above. time_step [s] of every
+    stack) as testbed/bodies/yards.py. Every run first SETTLES, untimed, from rest; the timed
+    window then lasts duration [s] up to `big_above` containers, big_duration [s] above.
+    The MuJoCo-hosted learned loop (CONTINUED) settles settle_s [s] (0.8) and its window
+    CONTINUES that run (window.py): the learned step's sleeping islands (asleep after t_sleep =
+    0.3 s below v_sleep = 1e-3 m/s) are asleep when the window starts. Measured on the 1AA
+    yards: every stack is below v_sleep by about 0.4 s, asleep islands hold 29 % of the
+    96-yard and 17 % of the 1000-yard at 0.6 s, 98 % of the 1000-yard at 0.7 s, and all of both
+    from 0.75 s; each row reports the asleep fraction at its window's start
+    (start_asleep_fraction). A fresh run from a settled state would restart every island's
+    rest timer (a 0.1 s window never sleeps). Every other model settles min(settle_s,
+    fresh_settle_s) [s] (0.1) and its window is a fresh run from that settled state (every
+    container's pose and velocity at the end of the settling run of the same engine and model):
+    Drake's and MuJoCo's own steps hold no sleep state, but the Drake-hosted learned loop's
+    islands restart there (awake in its window), and its cost per step (capped at N = 192) would
+    make a 0.8 s settle cost minutes a cell. time_step [s] of every
     engine. models: keys of models() (None: all); yards: some of YARDS; caps: model -> the
     largest N it runs (above: the cell is 'skipped', said in the report); predictor: of the
     learned loops (None: each engine's default). The crane yard adds one load (crane_type,
     crane_mass [kg]) hanging at rest crane_gap [m] above the middle stack, lowered at
     crane_speed [m/s] and crane_acceleration [m/s^2] from the window's start: it lands
-    inside the window and settles on the stack. clock: the cost per step the fits and targets
+    inside the window and settles on the stack (in a continued run the load hangs still
+    through the settling, crane_gap above the stack's top from rest, which sags about 1 mm
+    meanwhile: start_load_clearance_m; the rest of the yard may be asleep). clock: the cost per step the fits and targets
     read (CLOCKS: 'wall', the window's stepping, or 'cpu', this process's CPU time over the window
     run less that of a second build and one step, which other work on a shared machine hardly
     disturbs but the build's own spread does). fit_from: smallest N of the growth fits;
@@ -107,7 +121,8 @@ class ScaleConfig:
     bay_gap: float = 0.6  # [m]
     mass_range: tuple[float, float] = (8000.0, 28000.0)  # [kg]
     seed: int = 29
-    settle_s: float = 0.1  # [s] untimed, from rest
+    settle_s: float = 0.8  # [s] untimed, from rest, then the window continues the run (CONTINUED)
+    fresh_settle_s: float = 0.1  # [s] untimed, from rest, of the other models (at most settle_s): then a fresh window
     duration: float = 0.1  # [s] timed window
     big_duration: float = 0.06  # [s] timed window above big_above
     big_above: int = 192  # containers
@@ -134,6 +149,17 @@ class ScaleConfig:
     def model_names(self) -> tuple[str, ...]:
         """The models run, in config order (None: every model, in registry order)."""
         return tuple(self.models) if self.models is not None else tuple(models())
+
+    def continues(self, model: str) -> bool:
+        """Whether `model`'s window continues its settling run (window.py) rather than starting
+        a fresh run from the settled state."""
+        spec = models().get(model)
+        return spec is not None and spec.engine in CONTINUED
+
+    def settle_for(self, model: str) -> float:
+        """[s] untimed from rest before `model`'s window: settle_s where the window continues
+        the run, else min(settle_s, fresh_settle_s)."""
+        return self.settle_s if self.continues(model) else min(self.settle_s, self.fresh_settle_s)
 
     def duration_for(self, n: int) -> float:
         """[s] of the timed window in the runs of the N-container yard."""
@@ -173,10 +199,10 @@ class ScaleConfig:
         bad_caps = [(m, n) for m, n in self.caps if m not in known or not (isinstance(n, int) and n >= 1)]
         if bad_caps:
             raise ScaleConfigError(f"--caps: expected MODEL=N with a known model and N >= 1, got {bad_caps}")
-        for name in ("settle_s", "duration", "big_duration", "time_step"):
+        for name in ("settle_s", "fresh_settle_s", "duration", "big_duration", "time_step"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
-                option = {"settle_s": "settle"}.get(name, name).replace("_", "-")
+                option = {"settle_s": "settle", "fresh_settle_s": "fresh-settle"}.get(name, name).replace("_", "-")
                 raise ScaleConfigError(f"--{option}: expected a positive number of seconds, got {value}")
         if self.time_step > min(self.settle_s, self.duration, self.big_duration):
             raise ScaleConfigError(f"--time-step: {self.time_step:g} s is longer than a run "

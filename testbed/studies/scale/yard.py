@@ -10,6 +10,11 @@ the dynamics alone (every recorder, observer and viewer off):
   middle stack (row (rows + 1) // 2, bay (bays + 1) // 2), the hoist paying out from t = 0 at
   config.crane_speed and crane_acceleration: the load lands on that stack and settles there.
 
+`hold` [s]: the crane's hoist waits this long (a pause move): the yard that continues its
+settling run into the timed window (window.py) starts from rest with the load hanging
+crane_gap above the top of its stack, which sags by its contacts' compression while settling
+(about 1 mm: the load is that much higher when the hoist starts; the row says by how much).
+
 `state` (SettledState: the end of a settling run) places every block container where that run
 left it, with its velocity, so that a timed window starts past the settling transient; the
 crane's load is then placed crane_gap above the settled top of its stack.
@@ -74,9 +79,11 @@ def _load_z(top_z: float, config: ScaleConfig) -> float:
         0.5 * CONTAINER_TYPES[config.crane_type].size[2]
 
 
-def yard_scene(n: int, config: ScaleConfig, kind: str = "settled", duration: float | None = None) -> dict:
+def yard_scene(n: int, config: ScaleConfig, kind: str = "settled", duration: float | None = None,
+               hold: float = 0.0) -> dict:
     """The scene (a dict, as a scene file's YAML) of the N-container yard of `kind`, run for
-    `duration` [s] (None: config.duration_for(n)) at config.time_step [s]."""
+    `duration` [s] (None: config.duration_for(n)) at config.time_step [s]; the crane pauses
+    `hold` [s] before its hoist (a window that continues the settling run starts then)."""
     rows, bays, tiers = layout(n, config.tiers)
     scene = {"name": f"yard_{rows}x{bays}x{tiers}" + ("_crane" if kind == "crane" else ""),
              "description": f"{n} containers: {rows} rows x {bays} bays x {tiers} tiers"
@@ -96,15 +103,17 @@ def yard_scene(n: int, config: ScaleConfig, kind: str = "settled", duration: flo
                                 "X_WC": {"translation": [x, y, z]}}]
         scene["effects"]["crane"] = {
             "container": LOAD, "trolley_height": z + 0.5 * CONTAINER_TYPES[config.crane_type].size[2] + ROPE_LENGTH,
-            "moves": [{"kind": "hoist", "target": config.crane_gap + 0.05, "speed": config.crane_speed,
-                       "acceleration": config.crane_acceleration}]}
+            "moves": [{"kind": "pause", "duration": float(hold)}] * (hold > 0) + [
+                {"kind": "hoist", "target": config.crane_gap + 0.05, "speed": config.crane_speed,
+                 "acceleration": config.crane_acceleration}]}
     return scene
 
 
 def yard_scenario(n: int, config: ScaleConfig, kind: str = "settled", state: SettledState | None = None,
-                  duration: float | None = None):
-    """The yard of `kind` as a loaded Scenario (module doc), from rest or from `state`."""
-    scene = yard_scene(n, config, kind, duration)
+                  duration: float | None = None, hold: float = 0.0):
+    """The yard of `kind` as a loaded Scenario (module doc), from rest or from `state`; the
+    crane pauses `hold` [s] before its hoist."""
+    scene = yard_scene(n, config, kind, duration, hold)
     scenario = engine_variant(at_law_modulus(load_scenario(text=yaml.safe_dump(scene, sort_keys=False))), "truth")
     if state is not None:
         apply_state(scenario, state)
