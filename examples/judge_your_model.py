@@ -14,7 +14,7 @@ import numpy as np
 from learned_contact import load_predictor
 from learned_contact.predictors.poses import relative_pose, rotation_from_rpy
 from testbed.compare import compare_scene
-from testbed.validation.compare_verdict import judge
+from testbed.compare.verdict import judge
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # my_model.py beside this script
 model = load_predictor("my_model:OverlapCentre")

@@ -40,14 +40,6 @@ def poses(data: dict, n_single: int = SINGLE_PAIRS, batch: int = BATCH, seed: in
     return singles, batched
 
 
-def predictor_cost(model, singles, batched, repeats: int = 3) -> dict:
-    """{"first_call_s", "single_s_per_pair", "batched_s_per_pair"} [s] of `model` (a BenchModel or
-    predictor string; the first call is its spec's, in a fresh process) and the model's own and the
-    wrapper's figures (learned_contact.evaluation.cost.predictor_cost)."""
-    m = resolve(model)
-    return {"first_call_s": first_call_s(m.spec), **_timed(m.predictor, singles, batched, repeats)}
-
-
 def cost_table(models, data: dict, repeats: int = 3) -> dict:
     """{"predictors": {spec: costs + ratios}, "references": {...}} measured in this process for
     `models` (BenchModels or predictor strings).
@@ -58,16 +50,19 @@ def cost_table(models, data: dict, repeats: int = 3) -> dict:
     A model that declares fewer container sizes is timed on the poses of its own sizes
     (bench.accuracy.covered; the cost of a pair hardly depends on its pose)."""
     singles, batched = poses(data)
-    with one_blas_thread():
-        reference = predictor_cost(DEFAULT, singles, batched, repeats)
-        drake = drake_point_pair_cost(singles, repeats)["set_pose_and_query_s_per_pair"]
-    out = {}
-    for m in map(resolve, models):
-        spec = m.spec
+    resolved = {m.spec: m for m in map(resolve, models)}  # loaded once per process (load_predictor)
+    asked = {}  # spec -> (BenchModel, its poses); the shipped predictor first: every ratio's reference
+    for m in [resolved.get(DEFAULT) or resolve(DEFAULT), *(m for spec, m in resolved.items() if spec != DEFAULT)]:
         own, counts = covered(m.predictor, {k: data[k] for k in ("stacking", "general")})
-        mine = (singles, batched) if all(kept == of for kept, of in counts.values()) else poses(own)
-        with one_blas_thread():
-            c = reference if spec == DEFAULT else predictor_cost(m, *mine, repeats)
+        asked[m.spec] = (m, (singles, batched) if all(kept == of for kept, of in counts.values()) else poses(own))
+    with one_blas_thread():  # every figure side by side in this process; the first call in a fresh one each
+        drake = drake_point_pair_cost(singles, repeats)["set_pose_and_query_s_per_pair"]
+        costs = {spec: {"first_call_s": first_call_s(spec), **_timed(m.predictor, *mine, repeats)}
+                 for spec, (m, mine) in asked.items()}
+    reference = costs[DEFAULT]
+    out = {}
+    for spec in resolved:
+        c = costs[spec]
         out[spec] = {**c,
                      "single_vs_drake_point": c["single_s_per_pair"] / drake,
                      "batched_vs_drake_point": c["batched_s_per_pair"] / drake,

@@ -38,9 +38,8 @@ from testbed.bench.scenes import (
     QUICK_LEAST_OPEN,
     QUICK_OPEN_SCENES,
     choose,
-    closed_loop,
-    open_loop,
     pool,
+    scene_sections,
 )
 from testbed.bench.yard_budget import BudgetSettings, yard_budget
 from testbed.errors import TestbedError
@@ -182,21 +181,9 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
         entries[m.spec]["cost"] = costs["predictors"][m.spec]
     say("yard budget: pairs per 1 ms step beside the host engine's own step (96-container yard)")
     budget = yard_budget(models, BudgetSettings(repeats=2 if quick else 3))
+    scenes = scene_sections(models, chosen, say)  # every scene run first, then every gate
     for m in models:
-        entries[m.spec]["in_scene"] = {}
-        for scene, duration in chosen[m.spec][0][0]:
-            say(f"in-scene (open loop): {m.spec} on {scene}")
-            entries[m.spec]["in_scene"][scene] = open_loop(m, scene, duration)
-        entries[m.spec]["closed_loop"] = {}
-    runs: dict = {}  # (scene, duration) -> the models that run it, in the order chosen
-    for m in models:
-        for scene_duration in chosen[m.spec][1][0]:
-            runs.setdefault(scene_duration, []).append(m)
-    for (scene, duration), able in runs.items():
-        say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
-        result = closed_loop(able, scene, duration)
-        for m in able:
-            entries[m.spec]["closed_loop"][scene] = {**result["predictors"][m.spec], "duration_s": result["duration_s"]}
+        entries[m.spec].update(scenes[m.spec])
     for s in specs:
         entries[s]["good_enough"], entries[s]["verdict"] = _verdict(entries[s])
         entries[s]["known_limits"] = known_limits(entries[s])

@@ -1,6 +1,7 @@
 """The bench's scene sections: every predictor in the shipped scenes its sizes allow.
 
-- In-scene, open loop (`in_scene_figures`): the scene runs with Drake hydroelastic contact
+`scene_sections` runs both sections for every model, then judges them:
+- In-scene, open loop (testbed.compare.in_scene_figures): the scene runs with Drake hydroelastic contact
   driving it and the `learned_contact` effect asking the predictor at every recorded step (the
   validation scene case's comparison): point and normal error against Drake's centre of
   pressure, median and max, judged by testbed.gates.in_scene (the scene case's bound). The
@@ -23,8 +24,8 @@ from __future__ import annotations
 import tempfile
 
 from testbed.bench.model import BenchModel, scene_containers
-from testbed.compare import compare_predictors
 from testbed.compare.in_scene import in_scene_figures
+from testbed.compare.twin import compare_predictors
 from testbed.gates.closed_loop import DEFAULT_SCENES, case_result, judge
 from testbed.gates.in_scene import in_scene_gates
 from testbed.scenario import load_scenario, shipped_scenes
@@ -36,15 +37,6 @@ QUICK_OPEN_SCENES = (("two_stack", 0.5),)
 QUICK_CLOSED_SCENES = (("two_stack", 1.0), ("crane_misaligned", 2.0), ("overhang_tip", 0.9))  # overhang_tip: where the point decides
 QUICK_LEAST_OPEN, QUICK_LEAST_CLOSED = 1, 2  # quick mode: scenes at least, when that many are allowed
 OPEN_KEYS = ("point_error_median_m", "point_error_max_m", "normal_error_median_deg", "normal_error_max_deg")
-
-
-def open_loop(model, scene: str, duration: float) -> dict:
-    """The bench's in-scene entry for one model and scene: in_scene_figures plus "gates" (dicts)
-    and "passed" (every in-scene gate holds)."""
-    spec = model.spec if isinstance(model, BenchModel) else str(model)
-    f = in_scene_figures(scene, spec, duration)
-    gates = [g.to_dict() for g in in_scene_gates(f)]
-    return {**f, "gates": gates, "passed": all(g["passed"] for g in gates)}
 
 
 def cost(scene: str, duration: float) -> float:
@@ -77,18 +69,40 @@ def choose(model: BenchModel, listed, candidates, least: int | None) -> tuple[li
     return kept + others, skipped, [s for s, _ in others]
 
 
-def closed_loop(models, scene: str, duration: float) -> dict:
-    """{"scene", ..., "predictors": {spec: figures + "gates" + "passed"}} for one scene: every
-    model (BenchModel or spec) against one truth run, judged by testbed.gates.closed_loop."""
-    specs = [m.spec if isinstance(m, BenchModel) else str(m) for m in models]
+def scene_sections(models, chosen: dict, say=lambda msg: None) -> dict:
+    """{spec: {"in_scene": {scene: figures + "gates" + "passed"}, "closed_loop": {scene: figures +
+    "gates" + "passed" + "duration_s"}}} for `models` (BenchModels), each running the scenes of
+    chosen[spec] = (open-loop choice, closed-loop choice) (`choose`'s). Every run first: in scene
+    (open loop) per model and scene (in_scene_figures), and per closed-loop scene every model that
+    runs it against one truth run (compare_predictors); then every gate, testbed.gates.in_scene's
+    and testbed.gates.closed_loop's, on what those runs recorded. say: a progress line."""
+    opened = []  # (spec, scene, in-scene figures)
+    for m in models:
+        for scene, duration in chosen[m.spec][0][0]:
+            say(f"in-scene (open loop): {m.spec} on {scene}")
+            opened.append((m.spec, scene, in_scene_figures(scene, m.spec, duration)))
+    runs: dict = {}  # (scene, duration) -> the specs that run it, in the order chosen
+    for m in models:
+        for scene_duration in chosen[m.spec][1][0]:
+            runs.setdefault(scene_duration, []).append(m.spec)
+    out = {m.spec: {"in_scene": {}, "closed_loop": {}} for m in models}
     with tempfile.TemporaryDirectory(prefix="bench-closed-") as tmp:
-        dirs = [f"{tmp}/{i}" for i in range(len(specs))]
-        figures = compare_predictors(scene, list(specs), out_dirs=dirs, duration=duration, with_point=True,
-                                     replay=False)
-        result = case_result(scene, duration, list(zip(specs, figures, dirs)))
-    for f in result["predictors"].values():
-        gates = judge(result, f, "")
-        f["gates"] = [{"name": g.name, "passed": bool(g.passed), "value": g.value, "threshold": g.threshold,
-                       "unit": g.unit, **({"known_limit": True} if g.known_limit is not None else {})} for g in gates]
-        f["passed"] = all(g.passed for g in gates)
-    return result
+        closed = []  # (scene, duration, [(spec, figures, directory)])
+        for k, ((scene, duration), specs) in enumerate(runs.items()):
+            say(f"closed loop: {scene} ({duration:g} s), every predictor against one truth run")
+            dirs = [f"{tmp}/{k}/{i}" for i in range(len(specs))]
+            figures = compare_predictors(scene, specs, out_dirs=dirs, duration=duration, with_point=True, replay=False)
+            closed.append((scene, duration, list(zip(specs, figures, dirs))))
+        for spec, scene, f in opened:
+            gates = [g.to_dict() for g in in_scene_gates(f)]
+            out[spec]["in_scene"][scene] = {**f, "gates": gates, "passed": all(g["passed"] for g in gates)}
+        for scene, duration, judged_runs in closed:
+            result = case_result(scene, duration, judged_runs)
+            for spec, f in result["predictors"].items():
+                gates = judge(result, f, "")
+                f["gates"] = [{"name": g.name, "passed": bool(g.passed), "value": g.value, "threshold": g.threshold,
+                               "unit": g.unit, **({"known_limit": True} if g.known_limit is not None else {})}
+                              for g in gates]
+                f["passed"] = all(g.passed for g in gates)
+                out[spec]["closed_loop"][scene] = {**f, "duration_s": result["duration_s"]}
+    return out

@@ -3,7 +3,7 @@ other registered engine: testbed/engines), judged by the closed-loop gates of `t
 
 Exit status: 0 when every gate holds (or the learned model made no contact decision, so
 there is nothing to judge), 3 when a gate fails or the learned run diverged
-(testbed/validation/compare_verdict.py), 2 for bad input.
+(testbed/compare/verdict.py), 2 for bad input.
 """
 
 from __future__ import annotations
@@ -123,11 +123,11 @@ def _tag(engine_name: str, chosen, predictor: str, params: str | None) -> str:
 
 
 def run(args) -> int:
-    from testbed.compare import compare_candidates
+    from testbed.compare.run_candidates import compare_candidates
     from testbed.compare.candidates import predictor_for
-    from testbed.compare.printed import candidate_list
+    from testbed.compare.printed import candidate_list, compare_lines
+    from testbed.compare.verdict import judge
     from testbed.scenario import load_scenario, resolve_scene_path, source_label
-    from testbed.validation.compare_verdict import judge
 
     check_options(args)
     path = resolve_scene_path(args.scene)
@@ -142,7 +142,7 @@ def run(args) -> int:
             named = plan.asked in e.problem  # the loaders name the file or module:attribute already
             raise TestbedError(f"--predictor: {e.problem}" if named else f"--predictor {plan.asked}: {e.problem}") from None
         raise
-    print(format_figures(figures, plan.out_dir))
+    print("\n".join(compare_lines(figures, plan.out_dir)))
     if plan.engine == "all":
         from testbed.compare.candidates import unavailable_alternatives
 
@@ -150,14 +150,3 @@ def run(args) -> int:
             print(f"  not run: {label}: {why}")
     return figures["exit_status"]
 
-
-def format_figures(f: dict, out=None) -> str:
-    """The lines `testbed compare` prints of compare.json `f` (testbed/compare/printed.py), and
-    last the closed-loop gates and the verdict (testbed/validation/compare_verdict.py)."""
-    from testbed.compare.printed import figure_lines
-    from testbed.compare.run_candidates import NO_REFERENCE
-    from testbed.validation.compare_verdict import NOT_JUDGED, headline, verdict_lines
-
-    judged = f["verdict"] not in (None, NO_REFERENCE)
-    lines = figure_lines(f, out, head=headline(f) if judged else "", not_judged=f["verdict"] == NOT_JUDGED)
-    return "\n".join(lines + (verdict_lines(f) if judged else []))

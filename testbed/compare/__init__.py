@@ -10,8 +10,9 @@ every candidate, judges the learned ones and writes compare.json; runs.py holds 
 run's Drake variants; metrics.py turns two trajectories into the figures; contact_figures.py
 compares contact rows; artifacts.py writes the time series, the divergence plot and the
 ghost replay; printed.py the lines `testbed compare` prints; twin.py keeps compare_scene,
-compare_predictors and compare_engine as wrappers. The closed-loop gates' verdict comes in as
-a `judge` callable (testbed/validation sits above this package). Nothing here imports torch.
+compare_predictors and compare_engine as wrappers; verdict.py turns the closed-loop and
+in-scene gates (testbed/gates) into compare's verdict, passed to compare_candidates as its
+`judge` by the callers that want one. Nothing here imports torch.
 """
 
 from testbed.compare.candidates import Candidate

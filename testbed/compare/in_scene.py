@@ -9,9 +9,26 @@ from __future__ import annotations
 
 from testbed import variants
 from testbed.contact.surfaces import EXACT_LABEL_TOLERANCE_M
-from testbed.gates.in_scene import figures_from_summary
 from testbed.scenario import Scenario, load_scenario
 from testbed.simulation import run_scenario
+
+# the scene summary's keys (testbed.effects.learned_contact: learned_vs_hydro_*) -> figure names
+SUMMARY_KEYS = {"rows": "learned_vs_hydro_rows",
+                "point_error_median_m": "learned_vs_hydro_point_error_median_m",
+                "point_error_max_m": "learned_vs_hydro_point_error_max_m",
+                "normal_error_median_deg": "learned_vs_hydro_normal_error_median_deg",
+                "normal_error_max_deg": "learned_vs_hydro_normal_error_max_deg",
+                "truth_gap_median_m": "learned_vs_hydro_truth_gap_median_m"}
+
+
+def figures_from_summary(summary: dict, scene: str, duration: float, predictor: str,
+                         truth_uncertainty_m: float | None = None) -> dict:
+    """The in-scene figures (testbed.gates.in_scene's module docstring) from a hydroelastic-driven run's summary
+    (testbed.simulation's result.summary with the learned_contact effect on)."""
+    return {"scene": scene, "duration_s": float(duration), "predictor": predictor,
+            **{name: summary.get(key) for name, key in SUMMARY_KEYS.items()},
+            "truth_uncertainty_m": truth_uncertainty_m}
+
 
 
 def in_scene_figures(scenario, predictor_spec: str, duration: float | None = None) -> dict:

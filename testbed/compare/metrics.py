@@ -25,7 +25,9 @@ DEPARTED_M = 0.5
 
 def with_fixed(traj, containers):
     """traj's free containers plus the welded ones (constant poses), in scene order:
-    (p_WB (n, m_all, 3) [m], q_WB (n, m_all, 4))."""
+    (p_WB (n, m_all, 3) [m], q_WB (n, m_all, 4)); traj's own where it holds every container."""
+    if len(containers) == traj.p_WB.shape[1]:
+        return traj.p_WB, traj.q_WB
     n = len(traj.time)
     p, q, k = np.zeros((n, len(containers), 3)), np.zeros((n, len(containers), 4)), 0
     for i, c in enumerate(containers):
@@ -38,45 +40,32 @@ def with_fixed(traj, containers):
     return p, q
 
 
-def penetrations(traj, containers, predictor) -> tuple[np.ndarray, np.ndarray]:
+def penetrations(p_WB, R_WB, containers, predictor) -> tuple[np.ndarray, np.ndarray]:
     """((n,) deepest container-container penetration [m] by separating-axis depth,
-    (n,) deepest container-quay penetration [m] (lowest corner below z = 0)) per record.
-    containers: all the scene's ContainerSpecs (welded ones at their fixed poses)."""
-    import dataclasses
-
-    if len(containers) != traj.p_WB.shape[1]:
-        p_all, q_all = with_fixed(traj, containers)
-        traj = dataclasses.replace(traj, p_WB=p_all, q_WB=q_all)
-    n, m = traj.p_WB.shape[:2]
-    finite = np.all(np.isfinite(traj.p_WB), axis=(1, 2)) & np.all(np.isfinite(traj.q_WB), axis=(1, 2))
-    if not np.all(finite):  # a failed run's last record: infinitely deep
-        deep, ground = penetrations(_subset(traj, finite), containers, predictor)
-        out = np.full((2, n), np.inf)
-        out[0, finite], out[1, finite] = deep, ground
-        return out[0], out[1]
-    R = rotation_from_quaternion(traj.q_WB.reshape(-1, 4)).reshape(n, m, 3, 3)
+    (n,) deepest container-quay penetration [m] (lowest corner below z = 0)) per record, of
+    every container's pose: p_WB (n, m, 3) [m] and R_WB (n, m, 3, 3), welded ones at their
+    fixed poses (with_fixed); containers: all the scene's ContainerSpecs, in that order. A record
+    with a non-finite pose (a failed run's last) is infinitely deep."""
+    n, m = p_WB.shape[:2]
+    finite = np.all(np.isfinite(p_WB), axis=(1, 2)) & np.all(np.isfinite(R_WB), axis=(1, 2, 3))
+    deepest, ground = np.full(n, np.inf), np.full(n, np.inf)
+    p, R = p_WB[finite], R_WB[finite]  # (k, m, 3) [m], (k, m, 3, 3)
+    k = len(p)
     sizes = np.array([c.container_type().size for c in containers]).reshape(-1, 3)  # (m, 3) [m]
     signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])  # (8, 3)
-    corners = traj.p_WB[:, :, None, :] + np.einsum("nmij,mkj->nmki", R, 0.5 * sizes[:, None, :] * signs)
-    ground = np.maximum(0.0, -corners[..., 2].min(axis=(1, 2)))
+    corners = p[:, :, None, :] + np.einsum("nmij,mkj->nmki", R, 0.5 * sizes[:, None, :] * signs)
+    ground[finite] = np.maximum(0.0, -corners[..., 2].min(axis=(1, 2))) if k else []
+    deepest[finite] = 0.0
     pairs = [(i, j) for i in range(m) for j in range(i + 1, m)]
-    deepest = np.zeros(n)
-    if pairs and predictor is not None:
+    if k and pairs and predictor is not None:
         ia, ib = np.array(pairs).T
-        R_AW = np.swapaxes(R[:, ia], -1, -2)  # (n, P, 3, 3)
-        p_AB = np.einsum("npij,npj->npi", R_AW, traj.p_WB[:, ib] - traj.p_WB[:, ia]).reshape(-1, 3)
+        R_AW = np.swapaxes(R[:, ia], -1, -2)  # (k, P, 3, 3)
+        p_AB = np.einsum("npij,npj->npi", R_AW, p[:, ib] - p[:, ia]).reshape(-1, 3)
         R_AB = (R_AW @ R[:, ib]).reshape(-1, 3, 3)
-        size_A, size_B = np.tile(sizes[ia], (n, 1)), np.tile(sizes[ib], (n, 1))
-        depth = np.asarray(predictor.depth(p_AB, R_AB, size_A=size_A, size_B=size_B)).reshape(n, len(pairs))
-        deepest = np.maximum(0.0, depth.max(axis=1))
+        size_A, size_B = np.tile(sizes[ia], (k, 1)), np.tile(sizes[ib], (k, 1))
+        depth = np.asarray(predictor.depth(p_AB, R_AB, size_A=size_A, size_B=size_B)).reshape(k, len(pairs))
+        deepest[finite] = np.maximum(0.0, depth.max(axis=1))
     return deepest, ground
-
-
-def _subset(traj, rows):
-    import dataclasses
-
-    return dataclasses.replace(traj, time=traj.time[rows], p_WB=traj.p_WB[rows], q_WB=traj.q_WB[rows],
-                               V_WB=traj.V_WB[rows], energy=traj.energy[rows], potential=traj.potential[rows])
 
 
 def drift_rate(traj) -> float:
@@ -101,9 +90,11 @@ def compare_figures(truth, learned, containers, predictor) -> dict:
     containers: all the scene's ContainerSpecs."""
     n = len(learned.time)
     err = np.linalg.norm(learned.p_WB - truth.p_WB[:n], axis=2)  # (n, m) [m]
+    (p_learned, q_learned), (p_truth, q_truth) = with_fixed(learned, containers), with_fixed(truth, containers)
     angle = angle_between_quaternions_deg(learned.q_WB, truth.q_WB[:n])  # (n, m) [deg]
-    depth, ground = penetrations(learned, containers, predictor)
-    depth_truth, ground_truth = penetrations(truth, containers, predictor)
+    R_learned, R_truth = rotation_from_quaternion(q_learned), rotation_from_quaternion(q_truth)  # (n, m_all, 3, 3)
+    depth, ground = penetrations(p_learned, R_learned, containers, predictor)
+    depth_truth, ground_truth = penetrations(p_truth, R_truth, containers, predictor)
     gain = learned.energy - learned.energy[0]
     finite = bool(np.all(np.isfinite(learned.p_WB)) and np.all(np.isfinite(learned.q_WB)))
     completed = not learned.error and n == len(truth.time)

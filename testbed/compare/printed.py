@@ -9,6 +9,7 @@ from testbed.compare.candidates import Candidate, all_candidates, engine_candida
 from testbed.compare.costs import breakdown_line
 from testbed.compare.metrics import error_lines
 from testbed.compare.run_candidates import NO_REFERENCE
+from testbed.compare.verdict import NOT_JUDGED, headline, verdict_lines
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
 from testbed.engines import candidates
 
@@ -27,6 +28,15 @@ def candidate_list(engine_name: str, spec: str, params: str | None, *, no_truth:
     else:
         out = engine_candidates(chosen.name, params=params, predictor=spec)
     return [c for c in out if not (no_truth and c.engine == "drake")]
+
+
+def compare_lines(f: dict, out=None) -> list[str]:
+    """Every line `testbed compare` prints of compare.json `f`: figure_lines, then the
+    closed-loop gates and the verdict of a judged run (testbed/compare/verdict.py); out: the
+    output directory."""
+    judged = f["verdict"] not in (None, NO_REFERENCE)
+    lines = figure_lines(f, out, head=headline(f) if judged else "", not_judged=f["verdict"] == NOT_JUDGED)
+    return lines + (verdict_lines(f) if judged else [])
 
 
 def modulus_line(modulus: float, why: str) -> str:

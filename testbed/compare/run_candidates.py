@@ -18,12 +18,13 @@ run under test whatever engine ran it: compare_figures' (testbed/compare/metrics
 simulated_s_learned, drift_m_per_min_learned, learned_error, ...), wall_per_sim_s_learned
 (its wall time per simulated second [s]), wall_per_sim_s_truth / _point and the speed-ups,
 and for a learned or gated one pair_steps_learned and the closed-loop gates' verdict (the
-`judge` its caller passes: testbed/validation/compare_verdict.judge, a layer above). Penetration is the separating-axis depth for
+`judge` its caller passes: testbed/compare/verdict.judge). Penetration is the separating-axis depth for
 every candidate (SatDepth).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import tempfile
 from pathlib import Path
@@ -37,8 +38,6 @@ from testbed.compare import artifacts, costs
 from testbed.compare.contact_figures import SatDepth, contact_figures, max_penetration
 from testbed.compare.in_scene import in_scene_figures
 from testbed.compare.metrics import compare_figures
-from testbed.effects.contact_log import ContactLogConfig
-from testbed.effects.learned_dynamics.force_law import law_modulus
 from testbed.errors import TestbedError
 from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path, validate_scenario
@@ -67,17 +66,47 @@ def truth_accuracy(scenario) -> float | None:
     return scenario.truth.accuracy if scenario.truth.reference == "continuous" else None
 
 
-def judged_scene(scenario, candidates):
-    """`scenario` at the learned law's modulus when a candidate is learned or gated, else as given."""
-    return variants.derive(scenario, variants.modulus(None)) if any(c.judged for c in candidates) else scenario
+@dataclasses.dataclass(frozen=True)
+class RunScenes:
+    """Every scene one comparison runs, derived from the caller's scenario in one place
+    (testbed.variants) before anything runs.
+
+    scene: the scenario at the modulus every run shares (the learned law's when a candidate is
+    learned or gated, else the scene's own); runs: label -> the scene that candidate runs
+    (PHYSICS effects; the learned_dynamics config for a judged one); loops: label -> a judged
+    candidate's run scene with its predictor's learned loop on (what validate_scenario checks);
+    reference: Drake's truth (learned loop off; its contact log every `every` steps with
+    `contacts`); bare: the same without the log (timed alone), None without `contacts`."""
+
+    scene: Scenario
+    runs: dict
+    loops: dict
+    reference: Scenario
+    bare: Scenario | None
+    every: int
+
+    @property
+    def modulus(self) -> float:
+        """[Pa] the containers' hydroelastic modulus in every run."""
+        contact = self.scene.effects.contact
+        given = contact.hydroelastic_modulus if contact is not None else None
+        return HYDROELASTIC_MODULUS if given is None else float(given)
 
 
-def modulus_of(scenario, candidates) -> float:
-    """[Pa] the containers' hydroelastic modulus in every run (judged_scene already applied)."""
-    if any(c.judged for c in candidates):
-        return law_modulus(scenario)
-    given = scenario.effects.contact.hydroelastic_modulus if scenario.effects.contact is not None else None
-    return HYDROELASTIC_MODULUS if given is None else float(given)
+def run_scenes(scenario, candidates, *, contacts: bool = False, record_every: int | None = None) -> RunScenes:
+    """The scenes compare_candidates runs (RunScenes) for `candidates` (their labels unique:
+    ValueError), recorded every `record_every` plant steps (None: every 10 ms)."""
+    labels = [c.label for c in candidates]
+    if len(set(labels)) != len(labels):
+        raise ValueError(f"candidate labels must be unique, got {labels}")
+    judged = any(c.judged for c in candidates)
+    scene = variants.derive(scenario, variants.modulus(None)) if judged else scenario
+    every = record_every or steps_per_record(scene.plant.time_step)
+    runs = {c.label: variants.derive(scene, variants.physics_only(learned=c.judged)) for c in candidates}
+    loops = {c.label: variants.derive(runs[c.label], variants.learned_loop(c.predictor)) for c in candidates if c.judged}
+    bare = variants.derive(scene, variants.physics_only(learned=False))
+    reference = variants.derive(bare, variants.log_contacts(every)) if contacts else bare
+    return RunScenes(scene, runs, loops, reference, bare if contacts else None, every)
 
 
 def primary_of(candidates):
@@ -86,43 +115,31 @@ def primary_of(candidates):
     return next((c for c in candidates if c.judged), next((c for c in candidates if c.engine != "drake"), candidates[0]))
 
 
-def reference_run(scenario, duration: float, every: int, contacts: bool, source="<scenario>"):
-    """(Trajectory, contact rows or None) of Drake's truth (see the module doc), recorded every
-    `every` plant steps for `duration` [s]."""
-    def contact_log(s):
-        s.effects.contact_log = ContactLogConfig(every_steps=every)
-
-    edits = [variants.physics_only(learned=False)] + ([contact_log] if contacts else [])
-    scene = build_scene(variants.derive(scenario, *edits), source, continuous_accuracy=truth_accuracy(scenario))
-    trajectory = record_run(scene, duration, every)
-    return trajectory, (scene.effects["contact_log"].logger.tables()["contacts"] if contacts else None)
-
-
-def _run_scene(scenario, candidate):
-    """The scene `candidate` runs: PHYSICS effects, the learned_dynamics config for a judged one."""
-    return variants.derive(scenario, variants.physics_only(learned=candidate.judged))
+def reference_run(scene, duration: float, every: int, source="<scenario>"):
+    """(Trajectory, contact rows or None) of Drake's truth: the built reference `scene`
+    (RunScenes.reference or .bare; the continuous-time plant where its truth.reference is
+    "continuous"), recorded every `every` plant steps for `duration` [s]; the contact rows where
+    the scene logs its contact."""
+    built = build_scene(scene, source, continuous_accuracy=truth_accuracy(scene))
+    trajectory = record_run(built, duration, every)
+    log = built.effects.get("contact_log")
+    return trajectory, (log.logger.tables()["contacts"] if log is not None else None)
 
 
-def check_candidates(scenario, candidates, source="<scenario>") -> dict:
-    """Before anything runs: every candidate's engine accepts the scene (UnsupportedSceneError)
-    and every predictor loads (ScenarioError naming effects.learned_dynamics.predictor).
-    Returns {label: the scene that candidate runs (_run_scene)}, derived here once."""
-    labels = [c.label for c in candidates]
-    if len(set(labels)) != len(labels):
-        raise ValueError(f"candidate labels must be unique, got {labels}")
-    scenes = {c.label: _run_scene(scenario, c) for c in candidates}
+def check_candidates(scenes: RunScenes, candidates, source="<scenario>") -> None:
+    """Before anything runs: every candidate's engine accepts its scene (UnsupportedSceneError)
+    and every predictor loads (ScenarioError naming effects.learned_dynamics.predictor)."""
     for c in candidates:
-        c.spec.check(scenes[c.label])
+        c.spec.check(scenes.runs[c.label])
         if c.judged:
-            validate_scenario(variants.derive(scenes[c.label], variants.learned_loop(c.predictor)), source)
-    return scenes
+            validate_scenario(scenes.loops[c.label], source)
 
 
 def compare_candidates(scenario, candidates, *, reference: str | None = "truth", duration: float | None = None,
                        record_every: int | None = None, contacts: bool = False, out_dir=None, replay: bool = False,
                        source="<scenario>", retime_reference: bool = True, judge=None, in_scene: bool = False) -> dict:
     """Runs the reference (None: none) once, then each of `candidates` (Candidate) from the same
-    initial state of `scenario` (a Scenario: at its modulus per judged_scene) for `duration` [s]
+    initial state of `scenario` (a Scenario: at its modulus per run_scenes) for `duration` [s]
     (None: the scene's), recorded every `record_every` plant steps (None: every 10 ms); with
     `contacts`, the reference logs its contact and every candidate not stepped by Drake is
     judged on its contact rows too, and (`retime_reference`) the reference is simulated once more
@@ -134,8 +151,8 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     closed-loop gates read). Returns compare.json's dict: the common keys, the primary's figures
     and verdict flattened, `candidates` {label: figures} and `table` (one row per candidate).
     judge: (figures, directory) -> the verdict keys of one judged candidate, whose directory holds
-    its judged/<slug>/trajectories.npz: testbed.validation.compare_verdict.judge, the closed-loop
-    gates, passed in by the commands and case kinds above this package (None: no verdict).
+    its judged/<slug>/trajectories.npz: testbed.compare.verdict.judge, the closed-loop
+    gates (None: no verdict; validate's case kinds judge the series in their own case).
     in_scene: every judged candidate's predictor is also asked beside one more Drake hydroelastic
     run of the scene (testbed.compare.in_scene: the bench's in-scene figures); its in-scene gates
     join the verdict (`testbed compare` sets it; validate's case kinds judge in-scene in their own case).
@@ -144,28 +161,28 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
         raise ValueError("compare_candidates: no candidates")
     if reference not in ("truth", None):
         raise ValueError(f"compare_candidates: reference {reference!r}: expected 'truth' or None")
-    scenario = judged_scene(scenario, candidates)
+    scenes = run_scenes(scenario, candidates, contacts=contacts and reference is not None, record_every=record_every)
+    scenario, every = scenes.scene, scenes.every
     duration = scenario.duration if duration is None else float(duration)
     if not duration > 0:
         raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
-    scenes = check_candidates(scenario, candidates, source)
+    check_candidates(scenes, candidates, source)
     h = scenario.plant.time_step
-    every = record_every or steps_per_record(h)
     common = {"scene": scenario.name, "duration_s": duration, "time_step_s": h, "record_period_s": every * h,
-              "hydroelastic_modulus_Pa": modulus_of(scenario, candidates)}
+              "hydroelastic_modulus_Pa": scenes.modulus}
     truth = rows = None
     if reference is not None:
-        truth, rows = reference_run(scenario, duration, every, contacts, source)
+        truth, rows = reference_run(scenes.reference, duration, every, source)
         wall = truth.wall_s / max(truth.simulated_s, 1e-12)
         common.update(truth_reference=scenario.truth.reference, truth_accuracy=truth_accuracy(scenario),
                       wall_per_sim_s_truth=wall)
-        if contacts and retime_reference:  # the log costs 1.2-1.7x the dynamics (two_stack, measured): time it bare
-            bare, _ = reference_run(scenario, duration, every, False, source)
+        if scenes.bare is not None and retime_reference:  # the log costs 1.2-1.7x the dynamics (two_stack, measured): time it bare
+            bare, _ = reference_run(scenes.bare, duration, every, source)
             common.update(wall_per_sim_s_truth=bare.wall_s / max(bare.simulated_s, 1e-12), wall_per_sim_s_truth_logged=wall)
     runs = {}
     for c in candidates:
         with_rows = contacts and reference is not None and not c.spec.drake_hosted
-        runs[c.label] = c.spec.run(scenes[c.label], duration=duration, record_every=every, params=c.run_params,
+        runs[c.label] = c.spec.run(scenes.runs[c.label], duration=duration, record_every=every, params=c.run_params,
                                    predictor=c.predictor, contacts=with_rows, source=source)
     primary = primary_of(candidates)
     if reference is None:

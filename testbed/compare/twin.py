@@ -24,7 +24,7 @@ def compare_scene(scene, *, predictor: str | None = None, out_dir, duration: flo
     scene's learned_dynamics.predictor if it declares the effect, else "improved") and, when
     `with_point`, with Drake's point contact (for its wall time), from the same initial state;
     writes out_dir (compare_candidates' files) and returns the compare.json figures, with the
-    verdict of `judge` (testbed/validation/compare_verdict.judge; None: none). Raises
+    verdict of `judge` (testbed/compare/verdict.judge; None: none). Raises
     ScenarioError (bad scene or predictor) before anything is simulated or written."""
     scenario, source = load_scene(scene, source)
     candidates = [learned_loop(predictor_for(scenario, predictor)), *([Candidate.point()] if with_point else [])]

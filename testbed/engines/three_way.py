@@ -3,7 +3,7 @@
 The learned comparison runs Drake at the learned law's modulus (1e8 Pa unless the scene
 sets one) and `--engine mujoco` at the scene's own (the shipped SDF's 1e9 Pa), so their
 figures are errors against different truths. `--engine all` has a learned candidate, so
-compare_candidates puts the scene at the learned law's modulus (run_candidates.judged_scene)
+compare_candidates puts the scene at the learned law's modulus (run_candidates.run_scenes)
 and ONE Drake hydroelastic run at that modulus is the reference for every candidate from the
 same initial state: Drake point contact, the learned closed loop (gated as usual) and every
 other registered engine (testbed.engines.alternatives: MuJoCo with contact parameters matched

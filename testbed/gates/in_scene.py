@@ -5,8 +5,8 @@ its pressure field) over every logged container pair and step.
 One bound and one gate, shared by everything that judges a predictor in a scene:
 - the validation's scene case (testbed.validation.cases.scene: the shipped predictor, on the
   `learned_vs_hydro_*` figures of a hydroelastic-driven scene's summary);
-- `testbed bench` (every predictor, on the figures testbed.bench.scenes.in_scene_figures measures);
-- `testbed compare`'s verdict (testbed.validation.compare_verdict.judge: when its figures
+- `testbed bench` (every predictor, on the figures testbed.compare.in_scene measures);
+- `testbed compare`'s verdict (testbed.compare.verdict.judge: when its figures
   carry an "in_scene" entry, these gates join the closed-loop ones).
 
 Figures (the dict `in_scene_gates` reads; lengths [m], angles [deg]): "scene", "duration_s" [s],
@@ -17,7 +17,8 @@ Figures (the dict `in_scene_gates` reads; lengths [m], angles [deg]): "scene", "
 that could not be measured (no pair in contact) is None.
 
 This module is the foundation layer's (pyproject's import contracts): it judges figures and
-runs nothing; the run that measures them lives above the scene pipeline (testbed.bench.scenes).
+runs nothing; the run that measures them, and the summary keys it reads, live above the scene
+pipeline (testbed.compare.in_scene).
 """
 
 from __future__ import annotations
@@ -37,24 +38,6 @@ IN_SCENE_POINT_MEDIAN_M = 0.03
 # expert's gate) are answered by Drake's own face-on-face quadrature now (0.016 mm and 0.0003 mm).
 KNOWN_IN_SCENE_LIMITS: dict = {}
 GATE_NAME = "learned point error in scene"
-# the scene summary's keys (testbed.effects.learned_contact: learned_vs_hydro_*) -> figure names
-SUMMARY_KEYS = {"rows": "learned_vs_hydro_rows",
-                "point_error_median_m": "learned_vs_hydro_point_error_median_m",
-                "point_error_max_m": "learned_vs_hydro_point_error_max_m",
-                "normal_error_median_deg": "learned_vs_hydro_normal_error_median_deg",
-                "normal_error_max_deg": "learned_vs_hydro_normal_error_max_deg",
-                "truth_gap_median_m": "learned_vs_hydro_truth_gap_median_m"}
-
-
-def figures_from_summary(summary: dict, scene: str, duration: float, predictor: str,
-                         truth_uncertainty_m: float | None = None) -> dict:
-    """The in-scene figures (module docstring) from a hydroelastic-driven run's summary
-    (testbed.simulation's result.summary with the learned_contact effect on)."""
-    return {"scene": scene, "duration_s": float(duration), "predictor": predictor,
-            **{name: summary.get(key) for name, key in SUMMARY_KEYS.items()},
-            "truth_uncertainty_m": truth_uncertainty_m}
-
-
 def point_error_gate(name: str, median_m: float, *, truth_gap_m: float | None = None,
                      uncertainty_m: float | None = None, known: tuple | None = None) -> Gate:
     """The in-scene point gate named `name`: median_m [m] <= IN_SCENE_POINT_MEDIAN_M, or, for a

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from testbed.compare import Candidate, compare_candidates, run_candidates as rc
+from testbed.compare.verdict import judge
 from testbed.scenario import load_scenario
-from testbed.validation.compare_verdict import judge
 
 
 def test_one_reference_run_for_every_candidate(tmp_path, monkeypatch):
@@ -59,7 +59,7 @@ def test_a_learned_candidate_needs_a_learned_engine():
     with pytest.raises(ValueError, match="a predictor applies only to a learned engine"):
         Candidate("drake", params="point", predictor="improved")
     with pytest.raises(ValueError, match="labels must be unique"):
-        rc.check_candidates(load_scenario("two_stack"), [Candidate.point(), Candidate.point()])
+        rc.run_scenes(load_scenario("two_stack"), [Candidate.point(), Candidate.point()])
 
 
 def test_the_scenes_learned_dynamics_config_reaches_the_learned_candidate_only(tmp_path):

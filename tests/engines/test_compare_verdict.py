@@ -1,4 +1,4 @@
-"""`testbed compare`'s verdicts (testbed/validation/compare_verdict.py), its options and
+"""`testbed compare`'s verdicts (testbed/compare/verdict.py), its options and
 the errors that point at the user's input: the CLI in a subprocess, judged on its exit
 status and on compare.json's data. Runs are short (two_stack 0.05-1 s)."""
 
@@ -164,10 +164,10 @@ def test_all_engines_against_one_reference(tmp_path):
 
 
 def _judged(tmp_path, **figures):
-    """compare_verdict.judge on a synthetic twin run: 11 records, no energy created."""
+    """verdict.judge on a synthetic twin run: 11 records, no energy created."""
     import numpy as np
 
-    from testbed.validation.compare_verdict import judge
+    from testbed.compare.verdict import judge
 
     t = np.linspace(0.0, 5.0, 11)
     still = np.tile([1.0, 0.0, 0.0, 0.0], (11, 5, 1))  # (n, m, 4) w, x, y, z: no container turns

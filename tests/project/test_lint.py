@@ -54,7 +54,6 @@ ALLOWED = {  # (file, function) -> why its imports of project modules stay insid
     ("testbed/engines/mujoco/__init__.py", "version"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "check"): _ENGINE,
     ("testbed/engines/mujoco/__init__.py", "run"): _ENGINE,
-    ("testbed/commands/compare.py", "format_figures"): _CLI,
     ("testbed/engines/mujoco_learned/__init__.py", "unavailable"): _ENGINE,
     ("testbed/engines/mujoco_learned/__init__.py", "version"): _ENGINE,
     ("testbed/engines/mujoco_learned/__init__.py", "check"): _ENGINE,

@@ -17,7 +17,7 @@ compare.json `verdict`, and the exit status `testbed compare` returns (`exit_sta
 The resting-drift gate is judged only on the resting scenes run >= MIN_DRIFT_DURATION_S;
 `gates_not_judged` says why it is left out otherwise.
 
-In-scene gates: when the figures carry an "in_scene" entry (testbed.bench.scenes.in_scene_figures:
+In-scene gates: when the figures carry an "in_scene" entry (testbed.compare.in_scene.in_scene_figures:
 the predictor asked at every recorded step of Drake's hydroelastic run of the scene), its gates
 (testbed.gates.in_scene, the ones `testbed bench` and the validation scene case apply) join the
 closed-loop ones: a failed in-scene gate is a FAIL (exit status 3), as a failed closed-loop gate.
