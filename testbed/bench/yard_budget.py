@@ -38,7 +38,6 @@ import numpy as np
 from testbed.bench.model import resolve
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.document import Section, Text, table
-from testbed.engines import engines
 from testbed.geometry.rotations import rotation_from_rpy
 from testbed.studies.scale import ScaleConfig, run_cell, tasks
 from testbed.studies.scale.settings import models
@@ -125,8 +124,8 @@ def host_models() -> tuple[str, ...]:
     """The scale study's learned models (every engine a predictor decides, from the registry),
     tried in this order for the host's step: a real-time host first, the Drake-hosted (gated) loop last."""
     specs = models()
-    learned = [name for name, spec in specs.items() if spec.learned]
-    return tuple(sorted(learned, key=lambda name: engines()[specs[name].engine].gated))
+    learned = [name for name, spec in specs.items() if spec.judged]
+    return tuple(sorted(learned, key=lambda name: specs[name].gated))
 
 
 def host_step(host_size: int = HOST_SIZE, duration: float = 0.05, step_s: float = STEP_S) -> dict:

@@ -123,9 +123,9 @@ def _tag(engine_name: str, chosen, predictor: str, params: str | None) -> str:
 
 
 def run(args) -> int:
-    from testbed.compare.run_candidates import compare_candidates
     from testbed.compare.candidates import predictor_for
     from testbed.compare.printed import candidate_list, compare_lines
+    from testbed.compare.run_candidates import compare_candidates
     from testbed.compare.verdict import judge
     from testbed.scenario import load_scenario, resolve_scene_path, source_label
 

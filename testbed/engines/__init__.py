@@ -7,8 +7,9 @@ pybullet) in bullet/, `mujoco_learned` (MuJoCo stepping the bodies, a predictor 
 container contact) in mujoco_learned/. Every package is imported on the registry's first use;
 none imports its simulator's package until it runs.
 
-Beside the packages: comparison.py (the Drake variants an engine is judged against) and
-three_way.py (the learned law's modulus of `--engine all`). The comparison itself, every
+Beside the packages: candidate.py (Candidate: an engine, its contact parameters, its predictor),
+comparison.py (the Drake variants an engine is judged against) and three_way.py (the learned
+law's modulus of `--engine all`). The comparison itself, every
 candidate against one reference run, is testbed/compare/run_candidates.py.
 """
 
@@ -16,7 +17,7 @@ from testbed.engines.base import Engine, EngineRun, UnsupportedSceneError
 from testbed.errors import UnknownChoiceError
 from testbed.plugins import PackageRegistry
 
-_REGISTRY = PackageRegistry(__name__, __path__, "engine", instantiate=True, skip=("base", "comparison", "three_way"))
+_REGISTRY = PackageRegistry(__name__, __path__, "engine", instantiate=True, skip=("base", "candidate", "comparison", "three_way"))
 register = _REGISTRY.register
 
 

@@ -79,7 +79,7 @@ def test_a_registered_engine_is_a_model_of_the_scale_study(registered):
 
     registered(DummyPointEngine)
     spec = models()["dummy_point"]
-    assert spec.engine == "dummy_point" and spec.params == "only" and not spec.learned
+    assert spec.engine == "dummy_point" and spec.params == "only" and not spec.judged
 
 
 def test_a_registered_learned_engine_is_a_host_of_the_bench_s_yard_budget(registered):

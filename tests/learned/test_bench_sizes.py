@@ -117,8 +117,8 @@ def test_in_scene_gates_judge_the_figures_they_are_given():
 def test_compare_fails_a_model_the_in_scene_gates_fail(tmp_path):
     """The verdict of a twin run of two_stack: with the in-scene figures in it, the model whose
     points are 5 cm off fails (exit 3) on the in-scene gate; the shipped one keeps its verdict."""
-    from testbed.compare.in_scene import in_scene_figures
     from testbed.compare import compare_predictors
+    from testbed.compare.in_scene import in_scene_figures
     from testbed.compare.verdict import FAIL, judge
     from testbed.gates.in_scene import GATE_NAME
 

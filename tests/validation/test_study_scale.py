@@ -20,6 +20,7 @@ from testbed.cli import main  # noqa: E402
 from testbed.document import to_markdown  # noqa: E402
 from testbed.engines import engines  # noqa: E402
 from testbed.engines.base import Engine  # noqa: E402
+from testbed.engines.candidate import Candidate  # noqa: E402
 from testbed.scenario import load_scenario  # noqa: E402
 from testbed.studies import scale  # noqa: E402
 from testbed.studies.scale import cells, settings, targets  # noqa: E402
@@ -77,14 +78,17 @@ def test_the_crane_yard_hangs_its_load_over_the_middle_stack():
 def test_models_come_from_the_engine_registry(monkeypatch):
     found = settings.models()
     assert set(SHIPPED) <= set(found)
-    assert found["point"] == settings.ModelSpec("drake", "point", False, "Drake point")
-    assert found["mujoco"].params == "matched" and found["mujoco_learned"].learned and found["learned"].learned
+    assert found["point"] == Candidate("drake", "point", label="Drake point")
+    assert found["mujoco"].params == "matched" and found["mujoco_learned"].judged and found["learned"].judged
 
     class Novel(Engine):  # an engine registered tomorrow: in the study with no edit
         name, label, param_sets = "novel", "Novel", ("tuned", "plain")
 
+    from testbed.engines import candidate, engine
+
     monkeypatch.setattr(settings, "engines", lambda: {**engines(), "novel": Novel()})
-    assert settings.models()["novel"] == settings.ModelSpec("novel", "tuned", False, "Novel (tuned)")
+    monkeypatch.setattr(candidate, "engine", lambda name: Novel() if name == "novel" else engine(name))
+    assert settings.models()["novel"] == Candidate("novel", "tuned", label="Novel (tuned)")
     scale.ScaleConfig(models=("novel",)).validate()
 
 
@@ -249,7 +253,7 @@ def test_every_model_runs_a_tiny_yard_of_both_kinds(tiny_study):
         # drowned in the run-to-run spread of the builds (these windows are 5-10 steps)
         assert math.isnan(r["cpu_us_per_step"]) or r["cpu_real_time_factor"] == pytest.approx(1e3 / r["cpu_us_per_step"])
         split = r["split_us"]
-        if settings.models()[r["model"]].learned:  # the learned loop's parts add up to its step
+        if settings.models()[r["model"]].judged:  # the learned loop's parts add up to its step
             assert sum(split.values()) == pytest.approx(r["us_per_step"], rel=1e-6)
             assert r["pairs_per_step"] > 0
         else:  # the engine's own contact is inside its step

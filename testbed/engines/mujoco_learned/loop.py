@@ -236,11 +236,14 @@ class LearnedContact:
 
 
 def simulate(scenario, *, duration: float | None = None, predictor: str | None = None, record_every: int = 1,
-             source: object = "<scenario>") -> LearnedRun:
+             source: object = "<scenario>", contact: type | None = None) -> LearnedRun:
     """Runs `scenario` for `duration` [s] (None: the scene's) with MuJoCo stepping the bodies
     and `predictor` deciding container contact (see the module docstring); records every
-    `record_every` steps. Raises UnsupportedSceneError before anything runs; a run whose
-    state turns non-finite stops there (trajectory.error set)."""
+    `record_every` steps. contact: the class that applies the learned contact (None:
+    LearnedContact; a subclass may watch the run from inside: its `apply` is called once a
+    warm-up step, then once a step after mj_step1: the scale study's window clock). Raises
+    UnsupportedSceneError before anything runs; a run whose state turns non-finite stops there
+    (trajectory.error set)."""
 
     mj = mujoco_module()
     prepared = prepare(scenario, predictor, source)
@@ -255,7 +258,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     qadr = np.array([model.jnt_qposadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
     vadr = np.array([model.jnt_dofadr[model.body_jntadr[b]] for b in body_ids], dtype=int)
     qidx, vidx = qadr[:, None] + np.arange(7), vadr[:, None] + np.arange(6)
-    law = LearnedContact(prepared, model)
+    law = (contact or LearnedContact)(prepared, model)
     offset = 1 if s.ground else 0
     wind = None if s.effects.wind is None else WindLaw(
         s.effects.wind, np.array([c.container_type().size for c in free_specs], dtype=float).reshape(-1, 3))

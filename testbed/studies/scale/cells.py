@@ -60,7 +60,7 @@ def _run(engine, spec, scenario, duration: float, config: ScaleConfig, records: 
     """One engine run of `scenario` for `duration` [s], recording its start and `records` times
     after (1: its end only)."""
     every = max(1, round(duration / config.time_step / records))
-    extra = {"predictor": config.predictor} if spec.learned and config.predictor else {}
+    extra = {"predictor": config.predictor} if spec.judged and config.predictor else {}
     return engine.run(scenario, duration=duration, record_every=every, params=spec.params, **extra)
 
 
@@ -127,7 +127,7 @@ def run_cell(task: dict) -> dict:
             return {**row, "status": "unavailable", "why": why}
         engine.check(yard_scenario(n, config, yard))
         if config.continues(model):
-            return _continued(row, engine, spec, n, yard, config)
+            return _continued(row, n, yard, config)
         return _fresh(row, engine, spec, n, yard, config)
     except (UnsupportedSceneError, OptionalDependencyError, ImportError) as e:
         return {**row, "status": "unavailable", "why": _line(e)}
@@ -166,7 +166,7 @@ def _fresh(row: dict, engine, spec, n: int, yard: str, config: ScaleConfig) -> d
     return out
 
 
-def _continued(row: dict, engine, spec, n: int, yard: str, config: ScaleConfig) -> dict:
+def _continued(row: dict, n: int, yard: str, config: ScaleConfig) -> dict:
     """run_cell's row of a window that continues its settling run (window.py): one run from rest
     of settle_s, the window and one step, the window clocked inside it; repeated as _fresh's."""
     h = config.time_step
@@ -176,7 +176,7 @@ def _continued(row: dict, engine, spec, n: int, yard: str, config: ScaleConfig) 
     row["window_start_s"] = settle_steps * h
     best, cpu, runs = None, [], 0
     while best is None or (runs < config.repeats and best[1]["wall_s"] < config.repeat_below_s):
-        result, figures = continued_run(engine, spec, scenario, settle_steps, window_steps, config, crane, _run)
+        result, figures = continued_run(scenario, settle_steps, window_steps, config, crane)
         runs += 1
         if figures is None:
             return {**row, "status": "diverged", "why": result.trajectory.error, "runs": runs}

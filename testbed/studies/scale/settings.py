@@ -23,6 +23,7 @@ from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.bodies.yards import MAX_TIERS, MAX_YARD_CONTAINERS
 from testbed.effects.contact import CONTACT_MODELS
 from testbed.engines import engines
+from testbed.engines.candidate import Candidate
 from testbed.errors import TestbedError
 
 REFERENCE = "hydroelastic"  # the model every other is judged against: Drake, the yard's own contact model
@@ -36,33 +37,22 @@ KNOWN_LABELS = {"hydroelastic": "Drake hydroelastic", "point": "Drake point", "l
                 "mujoco": "MuJoCo (matched)", "mujoco_learned": "learned loop (in MuJoCo)"}
 
 
-@dataclasses.dataclass(frozen=True)
-class ModelSpec:
-    """One model of the study: the engine (registry name) that runs it, its params (a contact
-    model or parameter set; None: the engine's default), whether a learned predictor decides
-    its container contact (run with the config's predictor), and its label."""
-
-    engine: str
-    params: str | None
-    learned: bool
-    label: str
-
-
-def models() -> dict[str, ModelSpec]:
-    """Model name -> ModelSpec, in engine registry order (see the module doc)."""
+def models() -> dict[str, Candidate]:
+    """Model name -> its Candidate (testbed/engines/candidate.py: engine, contact parameters,
+    label; a learned one (`judged`) runs with the config's predictor), in engine registry order
+    (see the module doc)."""
     out = {}
     for name, engine in engines().items():
         if engine.reference:
-            out[REFERENCE] = ModelSpec(name, None, False, KNOWN_LABELS[REFERENCE])
+            out[REFERENCE] = Candidate(name, None, label=KNOWN_LABELS[REFERENCE])
             for contact in CONTACT_MODELS:
                 if not contact.startswith("hydroelastic"):
-                    out[contact] = ModelSpec(name, contact, False, KNOWN_LABELS.get(contact, f"{engine.label} {contact}"))
+                    out[contact] = Candidate(name, contact, label=KNOWN_LABELS.get(contact, f"{engine.label} {contact}"))
         elif engine.gated or engine.learned:
-            out[name] = ModelSpec(name, None, True, KNOWN_LABELS.get(name, f"{engine.label} (learned)"))
+            out[name] = Candidate(name, label=KNOWN_LABELS.get(name, f"{engine.label} (learned)"))
         else:
             params = engine.param_sets[0] if engine.param_sets else None
-            out[name] = ModelSpec(name, params, False,
-                                  KNOWN_LABELS.get(name, engine.label + (f" ({params})" if params else "")))
+            out[name] = Candidate(name, params, label=KNOWN_LABELS.get(name, engine.label + (f" ({params})" if params else "")))
     return out
 
 

@@ -23,7 +23,7 @@ TARGET_REAL_TIME = {"settled": 5.0, "crane": 1.0}  # [x real time] the fastest l
 
 def _learned(study: dict) -> list[str]:
     known = models()
-    return [m for m in study["config"].get("models") or known if m in known and known[m].learned]
+    return [m for m in study["config"].get("models") or known if m in known and known[m].judged]
 
 
 def targets(study: dict) -> list[dict]:

@@ -6,8 +6,9 @@ asleep while settling are still asleep when the window starts. A fresh run from 
 state would restart every island's rest timer at 0: no island could sleep in a 0.1 s window.
 
 The loop (testbed/engines/mujoco_learned/loop.py) times its whole run and keeps its step's
-sleep state to itself, so the window is clocked from inside the run: while it runs, the loop's
-LearnedContact is a subclass (Watched) whose apply, called once a step after mj_step1, notes
+sleep state to itself, so the window is clocked from inside the run: the loop is handed, as the
+class that applies its learned contact (loop.simulate's `contact`), a subclass of its
+LearnedContact (Watched) whose apply, called once a step after mj_step1, notes
 at the window's first step and at the step after its last this process's wall
 (perf_counter) and CPU clocks (process_time) and the step's cost counters. Between those two
 calls lie exactly the window's steps (the learned contact, the crane's ropes, mj_step2 and the
@@ -16,14 +17,10 @@ window's first step it also reads the yard there: the step's sleep counts (of th
 step: bodies in asleep islands, islands, asked pairs), the largest container speed, the kinetic
 energy (MuJoCo's mj_energyVel) and, with the crane, the load's clearance above its stack; the
 largest kinetic energy of the settling is sampled every 10 steps before the window.
-
-A loop option that times from a given step (or hands its step's sleep state to a fresh run)
-would make the subclass unneeded: the loop has none (yet).
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import time
 
@@ -95,17 +92,6 @@ def _watched(base, watch: Watch):
     return Watched
 
 
-@contextlib.contextmanager
-def watching(watch: Watch):
-    """The MuJoCo-hosted loop's runs inside this block fill `watch` (module doc)."""
-    base = loop.LearnedContact
-    loop.LearnedContact = _watched(base, watch)
-    try:
-        yield watch
-    finally:
-        loop.LearnedContact = base
-
-
 def window_figures(watch: Watch, traj, n_free: int, h: float) -> dict:
     """The timed window's figures from a filled `watch` (run_cell's keys): 'wall_s', 'cpu_s'
     (this process's CPU time over the window), 'steps', 'split_us' (engine_step: MuJoCo, the
@@ -117,8 +103,8 @@ def window_figures(watch: Watch, traj, n_free: int, h: float) -> dict:
     if set(watch.stamps) != {"start", "end"}:
         if traj.error:
             raise _Diverged(traj.error)
-        raise TestbedError("the scale study's window clock saw no window: the MuJoCo-hosted loop no longer builds its "
-                           "LearnedContact per run (testbed/studies/scale/window.py)")
+        raise TestbedError("the scale study's window clock saw no window: the MuJoCo-hosted loop no longer calls its "
+                           "contact's apply once a step (testbed/studies/scale/window.py)")
     (w0, c0, l0, s0), (w1, c1, l1, s1) = watch.stamps["start"], watch.stamps["end"]
     steps, wall, loop_costs, step_costs = watch.steps, w1 - w0, l1 - l0, s1 - s0
     broad, predict, law = (float(x) for x in loop_costs[:3])
@@ -139,15 +125,20 @@ class _Diverged(TestbedError):
     """The continued run stopped before its window ended (the loop's own words)."""
 
 
-def continued_run(engine, spec, scenario, settle_steps: int, window_steps: int, config, crane: tuple | None, run):
-    """One continued run of `scenario` (settle_steps + window_steps + 1 steps from rest; `run`:
-    cells._run) watched: (trajectory, window_figures) or (trajectory, None) when it diverged."""
+def continued_run(scenario, settle_steps: int, window_steps: int, config, crane: tuple | None):
+    """One continued run of `scenario` with the MuJoCo-hosted loop (settle_steps + window_steps +
+    1 steps from rest, the config's predictor, its start and end recorded) watched: (the loop's
+    LearnedRun, window_figures), or (it, None) when it diverged before the window's end or the
+    loop refused its step (UnstableStepError: a trajectory of that error)."""
     watch = Watch(settle_steps, window_steps, crane)
-    with watching(watch):
-        result = run(engine, spec, scenario, (settle_steps + window_steps + 1) * config.time_step, config)
-    traj = result.trajectory
-    n_free = len(traj.names)
+    steps = settle_steps + window_steps + 1
     try:
-        return result, window_figures(watch, traj, n_free, config.time_step)
+        result = loop.simulate(scenario, duration=steps * config.time_step, predictor=config.predictor,
+                               record_every=steps, contact=_watched(loop.LearnedContact, watch))
+    except loop.UnstableStepError as e:
+        return loop.LearnedRun(loop.refused_run(scenario, str(e)), {}, {}, ""), None
+    try:
+        return result, window_figures(watch, result.trajectory, len(result.trajectory.names), config.time_step)
     except _Diverged:
         return result, None
+
