@@ -1,4 +1,4 @@
-"""Sleeping islands in the learned contact step (native/src/step.c, cc_step_sleep_plan;
+"""Sleeping islands in the learned contact step (native/src/step_sleep.c, cc_step_sleep_plan;
 testbed/effects/learned_dynamics/step.py, SleepingConfig).
 
 The scene: two 3-high stacks of 20 ft containers (20, 15, 10 t bottom up) 0.3 m apart, so two
