@@ -8,37 +8,53 @@ absolute times: a shared machine slows both sides alike. Fewer poses than the sc
 defaults (512 labelled per distribution, 150 one per call, batches of 2,048) keep it to
 seconds; the ratios measured so agree with the script's defaults within the run-to-run
 spread the bands allow for.
+
+Each ratio judged is the median of REPEATS independent measurements (about 2 s each). A
+measurement that a burst of other work on a shared machine lands on (the suite ran beside the
+main job and a third CPU job: two ratios fell outside their bounds once, and passed alone) is
+outvoted by the other two; a median is as likely to err high as low, so it favours neither a
+target nor a pin's lower edge, and a change that makes a predictor slower moves all three.
 """
 
 from __future__ import annotations
 
 import argparse
 
+import numpy as np
 import pytest
 
 from learned_contact.evaluation import benchmark
 from learned_contact.evaluation.benchmark import KNOWN_COST_LIMITS, TARGETS
 
+REPEATS = 3  # independent measurements per ratio; their median is judged (odd: a median is one of them)
+
 
 @pytest.fixture(scope="module")
 def measured() -> dict:
+    """{ratio name: (median, [each measurement])}."""
     from learned_contact.evaluation.cost import one_blas_thread
 
     args = argparse.Namespace(n=512, single=150, batch=2048)
     with one_blas_thread():
-        res = benchmark.measure(args, numpy_paths=False)
-    return benchmark.ratios(res, args.batch)
+        runs = [benchmark.ratios(benchmark.measure(args, numpy_paths=False), args.batch) for _ in range(REPEATS)]
+    return {name: (float(np.median([r[name] for r in runs])), [r[name] for r in runs]) for name in runs[0]}
+
+
+def test_the_judged_ratio_is_the_median_of_the_measurements(measured):
+    for name, (ratio, each) in measured.items():
+        assert len(each) == REPEATS and ratio == sorted(each)[REPEATS // 2], name
 
 
 @pytest.mark.parametrize("name", list(TARGETS))
 def test_cost_target_is_met_or_within_its_pin(measured, name):
-    ratio, target = measured[name], TARGETS[name]
+    (ratio, each), target = measured[name], TARGETS[name]
+    seen = f"median of {', '.join(f'{r:.3g}' for r in each)}"
     if name not in KNOWN_COST_LIMITS:
-        assert ratio <= target, f"{name}: {ratio:.3g}, target <= {target:g}"
+        assert ratio <= target, f"{name}: {ratio:.3g} ({seen}), target <= {target:g}"
         return
     figure, (low, high), why = KNOWN_COST_LIMITS[name]
-    assert ratio <= high, f"{name}: {ratio:.3g}, worse than its pin ({figure:g}, band {low:g}-{high:g})"
-    assert ratio >= low, (f"{name}: {ratio:.3g}, better than its pin ({figure:g}, band {low:g}-{high:g}): "
+    assert ratio <= high, f"{name}: {ratio:.3g} ({seen}), worse than its pin ({figure:g}, band {low:g}-{high:g})"
+    assert ratio >= low, (f"{name}: {ratio:.3g} ({seen}), better than its pin ({figure:g}, band {low:g}-{high:g}): "
                           f"re-pin it, or drop it where the target ({target:g}) is met")
     this_run = " (below the target in this run, within the pin's spread)" if ratio <= target else ""
     pytest.xfail(f"known limit: {name} = {ratio:.3g}{this_run} against the target {target:g} "
