@@ -1,4 +1,4 @@
-/* load_dump: the test driver of native/src/weights.c (tests/native/test_integrator_kit.py).
+/* load_dump: the test driver of native/src/weights.c and npz.c (tests/native/test_integrator_kit.py).
  *
  *   load_dump WEIGHTS OUT.bin
  *       Loads WEIGHTS with cc_model_load. On success prints the model's integers on stdout (one

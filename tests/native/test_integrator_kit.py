@@ -1,7 +1,7 @@
 """The integrator's kit (native/Makefile, native/examples/crane_pair.cpp, docs/integrate.md), built
 and run as a C++ simulator's engineer would: `make -C native BUILD=<tmp>`, then the example.
 
-- The weights reader (native/src/weights.c) reads the shipped files bit for bit, refuses a
+- The weights reader (native/src/weights.c, on native/src/npz.c) reads the shipped files bit for bit, refuses a
   malformed one with one line naming the file, the entry and what was expected, and survives
   truncation and corruption at every tested offset (a driver compiled with AddressSanitizer
   where the compiler has it: tests/native/load_dump.c).
@@ -88,12 +88,12 @@ def _sanitizer_flags(workdir: Path) -> list[str]:
 
 @pytest.fixture(scope="module")
 def driver(kit, tmp_path_factory) -> Path:
-    """tests/native/load_dump.c on the reader alone (weights.c depends on libc only), with
+    """tests/native/load_dump.c on the reader alone (weights.c and npz.c depend on libc only), with
     AddressSanitizer and UBSan where available."""
     work = tmp_path_factory.mktemp("driver")
     out = work / "load_dump"
     built = _run([CC, "-std=c11", "-O1", "-g", "-Wall", "-Wextra", *_sanitizer_flags(work), f"-I{NATIVE / 'include'}",
-                  f"-I{NATIVE / 'src'}", NATIVE / "src" / "weights.c", DRIVER, "-o", out, "-lm"])
+                  f"-I{NATIVE / 'src'}", NATIVE / "src" / "weights.c", NATIVE / "src" / "npz.c", DRIVER, "-o", out, "-lm"])
     assert built.returncode == 0, built.stderr
     return out
 
