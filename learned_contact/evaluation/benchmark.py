@@ -41,6 +41,7 @@ OpenBLAS pools, numpy's and scipy's, otherwise spin against each other).
 from __future__ import annotations
 
 import argparse
+import time
 
 import numpy as np
 
@@ -137,21 +138,22 @@ def centred_stacks(n: int, seed: int = 5150):
     return p, R, s, s.copy()
 
 
-def _side_by_side(timed: dict) -> dict:
+def _side_by_side(timed: dict, clock=time.perf_counter_ns) -> dict:
     """{name: us per pair} of {name: (fn, pairs per call of fn)}, every fn called once per round in
     turn over 5 rounds (learned_contact.evaluation.cost.fastest_side_by_side): a ratio of two of
     them compares calls made within milliseconds of each other, so load that comes and goes on
     a shared machine slows both sides alike instead of whichever was timed during it."""
     names = list(timed)
-    ns = fastest_side_by_side([timed[k][0] for k in names], rounds=5)
+    ns = fastest_side_by_side([timed[k][0] for k in names], rounds=5, clock=clock)
     return {k: t * 1e-3 / timed[k][1] for k, t in zip(names, ns)}
 
 
-def measure(args, numpy_paths: bool = True) -> dict:
+def measure(args, numpy_paths: bool = True, clock=time.perf_counter_ns) -> dict:
     """{what: us per pair} (module docstring); numpy_paths=False leaves out the numpy
     reference paths and Drake's hydroelastic query, which no target names (the cost pins'
     test times only what the targets need). Each target's two sides (a predictor's call and
-    Drake's query) are timed side by side (`_side_by_side`)."""
+    Drake's query) are timed side by side (`_side_by_side`) by `clock`: wall time, or
+    time.process_time_ns (CPU time: the pins' test, which must hold on a loaded machine)."""
     from pydrake.geometry import HydroelasticContactRepresentation
 
     p, R, sA, sB = _poses(args.n)
@@ -186,7 +188,7 @@ def measure(args, numpy_paths: bool = True) -> dict:
                                                       kernel_calls)
     timed["drake point-pair, set pose + query"] = (
         lambda: [posed_query(scenes[int(i)], R[i], p[i]).ComputePointPairPenetration() for i in idx], len(idx))
-    res.update(_side_by_side(timed))
+    res.update(_side_by_side(timed, clock))
     fast = load_predictor("improved")
     if fast.compiled:  # the native core is built
         native_features(pb, Rb, sAb, sBb)
@@ -236,7 +238,7 @@ def measure(args, numpy_paths: bool = True) -> dict:
         for label, per_call in (("one pair per call", 1), (f"batched {args.batch}", args.batch)):
             centred[f"centred stacks: improved core in C, {label}"] = (
                 lambda per_call=per_call: _native.time_core(fast._native, cp, cR, csA, csB, per_call, 1), len(cp))
-    res.update(_side_by_side(centred))
+    res.update(_side_by_side(centred, clock))
     return res
 
 
