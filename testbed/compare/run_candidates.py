@@ -154,7 +154,8 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     its judged/<slug>/trajectories.npz: testbed.compare.verdict.judge, the closed-loop
     gates (None: no verdict; validate's case kinds judge the series in their own case).
     in_scene: every judged candidate's predictor is also asked beside one more Drake hydroelastic
-    run of the scene (testbed.compare.in_scene: the bench's in-scene figures); its in-scene gates
+    run of the scene as the caller gave it, not at the comparison's modulus (testbed.compare.in_scene:
+    the bench's in-scene figures, the same run the bench makes of that scene); its in-scene gates
     join the verdict (`testbed compare` sets it; validate's case kinds judge in-scene in their own case).
     Raises ScenarioError / UnsupportedSceneError before anything runs or is written."""
     if not candidates:
@@ -162,7 +163,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     if reference not in ("truth", None):
         raise ValueError(f"compare_candidates: reference {reference!r}: expected 'truth' or None")
     scenes = run_scenes(scenario, candidates, contacts=contacts and reference is not None, record_every=record_every)
-    scenario, every = scenes.scene, scenes.every
+    as_given, scenario, every = scenario, scenes.scene, scenes.every  # as_given: the in-scene run's scene
     duration = scenario.duration if duration is None else float(duration)
     if not duration > 0:
         raise TestbedError(f"duration: expected a positive number of seconds, got {duration}")
@@ -202,7 +203,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
                 spec = per[c.label].get("predictor") or c.predictor
                 if in_scene and spec and (c.spec.learned or c.spec.gated):
                     if spec not in asked:  # one open-loop run per predictor, shared by its rows
-                        asked[spec] = in_scene_figures(scenario, spec, duration)
+                        asked[spec] = in_scene_figures(as_given, spec, duration)
                     per[c.label]["in_scene"] = asked[spec]
                 _judge(c, per[c.label], common, tmp, truth, runs[c.label], point, judge, scenario)
         figures = {**common, **per[primary.label], "primary": primary.label, "candidates": per,

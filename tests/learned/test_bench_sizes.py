@@ -139,3 +139,22 @@ def test_compare_fails_a_model_the_in_scene_gates_fail(tmp_path):
     assert biased["verdict"] == FAIL and biased["exit_status"] == 3 and GATE_NAME in biased["gates_failed"]
     assert set(biased["gates_failed"]) - {GATE_NAME} == set(plain["gates_failed"])  # the closed-loop gates as before
     assert GATE_NAME not in shipped["gates_failed"] and shipped["verdict"] == judge(figures[0], dirs[0])["verdict"]
+
+
+def test_compare_asks_the_predictor_in_the_scene_the_bench_asks_it_in(tmp_path):
+    """`testbed compare` runs its comparison at the learned law's modulus (two_stack's containers
+    at 1e8 Pa, not the shipped 1e9), but its in-scene figures come from the scene as the file sets
+    it: the very run the bench makes (testbed.compare.in_scene), so the two commands judge a model
+    on the same in-scene figures. Measured at the comparison's modulus instead, stack_slide_off's
+    shipped predictor had a 58 mm median there (the bench's run: 0.94 mm)."""
+    import json
+
+    from testbed.cli import main
+    from testbed.compare.in_scene import in_scene_figures
+
+    out = tmp_path / "cmp"
+    assert main(["compare", "two_stack", "--duration", "0.3", "--no-replay", "--out", str(out)]) == 0
+    f = json.loads((out / "compare.json").read_text())
+    assert f["hydroelastic_modulus_Pa"] == 1e8  # the comparison's own runs: at the learned law's modulus
+    bench = in_scene_figures("two_stack", "improved", 0.3)
+    assert f["in_scene"] == json.loads(json.dumps(bench)) and bench["rows"] > 0  # every figure, key by key
