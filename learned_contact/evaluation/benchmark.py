@@ -81,8 +81,13 @@ CORE_TARGETS_US = {
 # 2.5-4.7, centred stacks batched 0.89-1.49, paper batched 0.35-0.51. The one-pair-per-call
 # targets are met since (mix 0.24-0.41, centred stacks 0.18-0.29; with numba 0.60-0.66 and
 # 0.40-0.66), so their pins went.
+# Re-pinned 2026-12-04 (batched improved 3.1 -> 2.4, batched paper 0.43 -> 0.35): measured on the 2-core
+# development machine, idle, six runs each: 2.24-2.89 and 0.33-0.37 in wall time, 1.98-2.51 and 0.31-0.37 in
+# CPU time (the tests' clock); beside a fresh-clone suite and the main job, CPU time: 1.45-1.54 (below the
+# old band's 1.55) and 0.223 (the old band's edge 0.215): contention for the shared core's caches still
+# slows Drake's kernel more than the networks there, which the clock cannot remove and the 2x bands cover.
 KNOWN_COST_LIMITS: dict[str, tuple[float, tuple[float, float], str]] = {
-    "batched improved compiled / drake point-pair kernel": (3.1, (1.55, 6.2), (
+    "batched improved compiled / drake point-pair kernel": (2.4, (1.2, 4.8), (
         "the target allows 0.32 us per pair; where the faces tilt (most of the mix's general half) the "
         "main network runs, 10,304 multiply-adds on 82 KB of float64 weights (more than the core's L1 "
         "cache): ~2.2 us per evaluation in the native core with AVX on the development machine (3.0 us "
@@ -96,7 +101,7 @@ KNOWN_COST_LIMITS: dict[str, tuple[float, tuple[float, float], str]] = {
         "the same cost as the centred stacks' batched call from Python (the call's fixed cost is "
         "shared by 2,048 pairs): Drake's face-on-face quadrature, ~1.1 us per pair, about Drake's "
         "whole point-pair query; the target allows 0.65 us")),
-    "batched paper compiled / drake point-pair kernel": (0.43, (0.215, 0.86), (
+    "batched paper compiled / drake point-pair kernel": (0.35, (0.175, 0.7), (
         "the paper's 6-20-18-4 network costs ~0.5 us per pair in the native core (38 tanh, three "
         "libm angle functions, the separating-axis depth); the target allows 0.06 us")),
 }
