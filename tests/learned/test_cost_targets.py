@@ -98,3 +98,12 @@ def test_verdicts_read_the_pins():
     free = [name for name in TARGETS if name not in KNOWN_COST_LIMITS]
     for name in free:
         assert benchmark.verdicts({**rat, name: 2.0 * TARGETS[name]})[name] == "NOT met"
+
+
+def test_side_by_side_reads_the_clock_it_is_given():
+    """fastest_side_by_side times each call with the given clock (the CPU-time clock above), its
+    rounds interleaved: two functions, two rounds, a clock that reads out a script of ticks."""
+    from learned_contact.evaluation.cost import fastest_side_by_side
+
+    ticks = iter([0, 5, 5, 9, 10, 11, 11, 20])  # round 1: f0 5, f1 4; round 2: f0 1, f1 9
+    assert fastest_side_by_side([lambda: None, lambda: None], rounds=2, clock=lambda: next(ticks)) == [1.0, 4.0]
