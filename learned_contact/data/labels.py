@@ -31,8 +31,9 @@ from learned_contact.model.prior import contact_type
 from testbed.drake_support import drake_version
 from testbed.progress import progress as progress_bar
 
-LABEL_VERSION = 3  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus;
-# 3: the centre of pressure is the exact integral, the one-point rule's beside it)
+LABEL_VERSION = 4  # bump when labelling or sampling changes meaning (2: forces at the 1e9 Pa SDF modulus;
+# 3: the centre of pressure is the exact integral, the one-point rule's beside it;
+# 4: the weighted sums are numpy reductions, not BLAS: the same bits on every CPU)
 _BISECT_TOL = 1e-6  # [m]
 
 # Per-process state: (type_a, type_b) -> testbed.contact.pair_plant.ContainerPair

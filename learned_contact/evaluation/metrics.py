@@ -6,6 +6,7 @@ import numpy as np
 
 from learned_contact.model.encodings import angle_error, octant_signs, paper_outputs
 from learned_contact.model.prior import CONTACT_TYPES
+from testbed.geometry.rotations import angle_between
 
 PAPER_OUTPUT_NAMES = ("az_point", "el_point", "az_force", "el_force")
 # The paper's published figures (averaged over its 4 outputs), for side-by-side reports.
@@ -41,8 +42,7 @@ def stats(values) -> dict:
 def point_normal_errors(point, normal, ds):
     """(point error (n,) [m], normal error (n,) [deg]) against a Dataset's labels."""
     e_point = np.linalg.norm(point - ds.cop, axis=1)
-    cos = np.clip(np.einsum("ij,ij->i", normal, ds.normal), -1.0, 1.0)
-    return e_point, np.degrees(np.arccos(cos))
+    return e_point, np.degrees(angle_between(normal, ds.normal))  # atan2: well conditioned near 0 deg
 
 
 def evaluate(point, normal, ds) -> dict:

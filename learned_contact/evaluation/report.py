@@ -6,8 +6,11 @@ by training.train_default (or read back from a metrics.json).
 
 from __future__ import annotations
 
+import hashlib
 import json
 from pathlib import Path
+
+import numpy as np
 
 from learned_contact.evaluation.metrics import PAPER_OUTPUT_NAMES, PAPER_TABLE_1, PAPER_TABLE_2
 from learned_contact.predictors.improved import SHIPPED_DIR
@@ -78,6 +81,20 @@ def render_markdown(metrics: dict) -> str:
     if "wall_time_s" in metrics:
         lines += ["## Run", "", "Wall time [s]: " + ", ".join(f"{k} {v:.0f}" for k, v in metrics["wall_time_s"].items()), ""]
     return "\n".join(lines)
+
+
+def weights_digest(path) -> str:
+    """SHA-256 over a weights file's float arrays (name, then bytes, names sorted): what metrics.json's
+    "weights_sha256" records of the weights it scored. Any changed bit of any weight changes it; the
+    zip's own bytes (timestamps, compression) do not."""
+    h = hashlib.sha256()
+    with np.load(path) as z:
+        for name in sorted(z.files):
+            a = z[name]
+            if a.dtype.kind == "f":
+                h.update(name.encode())
+                h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
 
 
 def write_report(metrics: dict, out_dir) -> tuple[Path, Path]:

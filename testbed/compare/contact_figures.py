@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from testbed.geometry.boxes import box_box_signed_distance
+from testbed.geometry.rotations import angle_between
 from testbed.physics import percentile_summary
 
 
@@ -64,8 +65,7 @@ def contact_figures(drake_contacts: dict, other_contacts: dict) -> dict:
     i_d = np.array([drake[k] for k in common])
     i_m = np.array([mj[k] for k in common])
     point_err = np.linalg.norm(other_contacts["p_W_cop"][i_m] - centre_of_pressure_in_plane(drake_contacts, i_d), axis=1)
-    cos = np.einsum("ni,ni->n", other_contacts["n_W"][i_m], drake_contacts["n_W"][i_d])
-    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    angle = np.degrees(angle_between(other_contacts["n_W"][i_m], drake_contacts["n_W"][i_d]))
     last = np.array([k[0] for k in common]) == max(k[0] for k in common)  # the last compared step
     for name, values in (("contact_point_error", point_err), ("contact_normal_error", angle)):
         unit = "m" if name == "contact_point_error" else "deg"

@@ -132,18 +132,25 @@ def static_pressure(faces: SurfaceFaces) -> StaticPressure:
     if area <= 0.0:
         nan3 = np.full(3, np.nan)
         return StaticPressure(nan3, nan3, np.zeros(3), 0.0, nan3, nan3)
+    # Weighted sums as numpy reductions, never `@`: a (f,) @ (f, 3) product is BLAS's dgemv, whose
+    # kernel OpenBLAS picks at run time by CPU (SkylakeX on an AVX-512 Zen 4, Haswell on a Zen 5 it
+    # does not know), each summing in its own order (and a 1-D linalg.norm is its ddot): the labels' normals differed in the last bit
+    # on 63-85 % of poses between kernels (docs/testing.md). numpy's own sum is the same everywhere.
+    def wsum(w, v):  # (f,), (f, 3) -> (3,)
+        return (w[:, None] * v).sum(axis=0)
+
     weight = faces.area * faces.pressure  # (f,) [N]: integral of p dA, exact for a linear p
     w_sum = weight.sum()
-    centroid = faces.area @ faces.centroid / area
+    centroid = wsum(faces.area, faces.centroid) / area
     if w_sum <= 0.0:  # zero pressure everywhere (touching at the margin): fall back to area
         weight, w_sum = faces.area, area
         cop = one_point = centroid
     else:
         cop = faces.moment.sum(axis=0) / w_sum
-        one_point = weight @ faces.centroid / w_sum
-    force = (faces.area * faces.pressure) @ faces.normal  # (3,)
-    direction = weight @ faces.normal
-    normal = direction / np.linalg.norm(direction)
+        one_point = wsum(weight, faces.centroid) / w_sum
+    force = wsum(faces.area * faces.pressure, faces.normal)  # (3,)
+    direction = wsum(weight, faces.normal)
+    normal = direction / np.sqrt((direction * direction).sum())  # not linalg.norm: a 1-D norm is BLAS's ddot
     return StaticPressure(cop, normal, force, area, centroid, one_point)
 
 

@@ -65,6 +65,7 @@ def _run_child(args, tmp_path, timeout_s=60.0):
     return result, err.read_text(), result["vm_hwm_kb"] or usage.ru_maxrss  # no /proc: the bound is stricter
 
 
+@pytest.mark.timing  # a wall bound on the refusal: alone on the machine (tests/tiers.py)
 @pytest.mark.parametrize("kind", sorted(hostile_files.MAKERS))
 def test_hostile_scene_exits_2_with_one_line_fast_and_small(kind, tmp_path):
     files = tmp_path / "files"
@@ -109,6 +110,7 @@ def test_a_few_aliases_still_load():
 # ----------------------------------------------------------------------------- --set values
 
 
+@pytest.mark.timing  # a wall bound on the refusal: alone on the machine (tests/tiers.py)
 @pytest.mark.parametrize("value, needle", [
     ("[" * 1000 + "]" * 1000, "nested deeper"),
     ("&a [x, x, x, x, x, x, x, x, x, x]", None),  # an anchor alone is fine (then fails the schema: description is a string)
@@ -126,6 +128,7 @@ def test_hostile_set_values(value, needle, tmp_path):
         assert needle in message, message
 
 
+@pytest.mark.timing  # a wall bound on the refusal: alone on the machine (tests/tiers.py)
 def test_set_alias_bomb_is_refused():
     anchors = ["&l0 [b]"] + [f"&l{i} [" + ", ".join([f"*l{i - 1}"] * 10) + "]" for i in range(1, 10)]
     start = time.perf_counter()
@@ -153,6 +156,7 @@ def test_non_regular_toss_files_are_refused(kind, needle, tmp_path):
         load_tosses(path)
 
 
+@pytest.mark.timing  # a wall bound on the refusal: alone on the machine (tests/tiers.py)
 def test_oversized_toss_file_is_refused_before_reading(tmp_path):
     path = tmp_path / "huge.npz"
     with path.open("wb") as f:  # sparse: no disk used
@@ -194,6 +198,7 @@ def _run_dir_with_suite(tmp_path, text):
     return run
 
 
+@pytest.mark.timing  # a wall bound on the refusal: alone on the machine (tests/tiers.py)
 @pytest.mark.parametrize("text, needle", [
     ('{"schema": 1, "schema": 2, "cases": []}', "'schema' twice"),
     ("[" * 100_000 + "]" * 100_000, "nested too deeply"),

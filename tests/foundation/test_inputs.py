@@ -203,6 +203,7 @@ def hostile_scene(draw):
     return kind, text
 
 
+@pytest.mark.timing  # a wall bound per case: alone on the machine (tests/tiers.py)
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(hostile_scene())
 def test_hostile_scenes_fail_fast_with_one_line(case):

@@ -40,6 +40,8 @@ import pytest
 from learned_contact.evaluation import benchmark
 from learned_contact.evaluation.benchmark import KNOWN_COST_LIMITS, TARGETS
 
+pytestmark = pytest.mark.timing  # CPU-time ratios: serially, alone on the machine (tests/tiers.py)
+
 REPEATS = 3  # independent measurements per ratio; their median is judged (odd: a median is one of them)
 
 

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.once  # the import contracts read the source
+
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.once  # ruff reads the source: the same on every Drake release
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
