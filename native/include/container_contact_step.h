@@ -215,6 +215,25 @@ void cc_step_sleep_wake(cc_step *step, size_t n, const int64_t *bodies);
 int cc_step_sleep_plan(cc_step *step, const double *w_WB, const double *v_WB, uint8_t *ask, size_t *n_asked);
 void cc_step_sleep_get_counts(const cc_step *step, cc_step_sleep_counts *out);
 
+/* The exact static hydroelastic contact of two compliant boxes at one pose, any orientation
+ * (corners, edges, any yaw; native/src/step_field.c): the integrals of Drake's medial-axis pressure
+ * fields over their equal-pressure surface, in A's frame. */
+typedef struct cc_field_contact {
+  double force[3];          /* [N] on B, the integral of p n dA (n from A into B) */
+  double moment[3];         /* [N m] about A's origin */
+  double cop[3];            /* [m] the centre of pressure (zeros without a surface) */
+  double first_moment[3];   /* [N m] the integral of p x dA */
+  double pressure_integral; /* [N] the integral of p dA */
+  double area;              /* [m^2] the surface's area */
+  double dforce_ddepth[9];  /* [N/m] row-major J: d(force) = J u dd when B moves by -u dd */
+  double stiffness;         /* [N/m] n . J n along the force's direction n: dF/dd */
+  int pieces;               /* cell pairs carrying part of the surface */
+} cc_field_contact;
+
+/* p_AB (3) [m], R_AB (9, row-major), half extents hA, hB (3) [m], moduli [Pa]; *out zeroed apart. */
+void cc_static_contact(const double p_AB[3], const double R_AB[9], const double hA[3], const double hB[3],
+                       double modulus_A, double modulus_B, cc_field_contact *out);
+
 /* The force law's elastic part for one pose (p_AB (3) [m], R_AB (9), half extents hA, hB (3)
  * [m]): out[0] the Winkler foundation force kappa x the penetration volume over the face
  * overlap [N], out[1] the overlap area [m^2], out[2] the normal stiffness dF/dd = kappa x the

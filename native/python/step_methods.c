@@ -283,6 +283,49 @@ static PyObject *py_step_elastic(PyObject *self, PyObject *const *args, Py_ssize
   return result;
 }
 
+/* static_contact(p_AB (n, 3), R_AB (n, 3, 3), hA (n, 3), hB (n, 3), modulus_A, modulus_B, out (n, 26)) -> None:
+ * per pose one row of cc_static_contact: force (3), moment (3), cop (3), first_moment (3),
+ * pressure_integral, area, dforce_ddepth (9), stiffness, pieces (as a double) */
+static PyObject *py_static_contact(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+  (void)self;
+  ARGS(7, "p_AB, R_AB, hA, hB, modulus_A, modulus_B, out");
+  buffers b = {.n = 0};
+  void *p, *R, *hA, *hB, *out;
+  Py_ssize_t n3 = 0, n9, nA, nB, nout;
+  PyObject *result = NULL;
+  double EA = PyFloat_AsDouble(args[4]), EB = PyFloat_AsDouble(args[5]);
+  if (PyErr_Occurred()) return NULL;
+  if (cc_py_take(&b, args[0], "p_AB", 'd', -1, 0, 0, &p, &n3) == 0 && cc_py_take(&b, args[1], "R_AB", 'd', -1, 0, 0, &R, &n9) == 0 &&
+      cc_py_take(&b, args[2], "hA", 'd', -1, 0, 0, &hA, &nA) == 0 && cc_py_take(&b, args[3], "hB", 'd', -1, 0, 0, &hB, &nB) == 0 &&
+      cc_py_take(&b, args[6], "out", 'd', -1, 1, 0, &out, &nout) == 0) {
+    Py_ssize_t n = n3 / 3;
+    if (n3 != 3 * n || n9 != 9 * n || nA != 3 * n || nB != 3 * n || nout != 26 * n) {
+      PyErr_SetString(PyExc_ValueError, "static_contact: p_AB (n, 3), R_AB (n, 3, 3), hA, hB (n, 3), out (n, 26)");
+    } else {
+      for (Py_ssize_t i = 0; i < n; ++i) {
+        cc_field_contact c;
+        cc_static_contact((const double *)p + 3 * i, (const double *)R + 9 * i, (const double *)hA + 3 * i,
+                          (const double *)hB + 3 * i, EA, EB, &c);
+        double *o = (double *)out + 26 * i;
+        memcpy(o, c.force, 3 * sizeof(double));
+        memcpy(o + 3, c.moment, 3 * sizeof(double));
+        memcpy(o + 6, c.cop, 3 * sizeof(double));
+        memcpy(o + 9, c.first_moment, 3 * sizeof(double));
+        o[12] = c.pressure_integral;
+        o[13] = c.area;
+        memcpy(o + 14, c.dforce_ddepth, 9 * sizeof(double));
+        o[23] = c.stiffness;
+        o[24] = (double)c.pieces;
+        o[25] = 0.0;
+      }
+      Py_INCREF(Py_None);
+      result = Py_None;
+    }
+  }
+  cc_py_release(&b);
+  return result;
+}
+
 static PyObject *py_step_held_count(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
   (void)self;
   ARGS(1, "step");
@@ -347,6 +390,7 @@ PyMethodDef cc_py_step_methods[] = {
     FAST(step_contact, "step_contact(step, model, p_WB, R_WB, w_WB, v_WB, wrench_W, seconds) -> k, or (status, row, k)"),
     FAST(step_counts, "step_counts(step) -> (n_broad, k): the broad phase's candidates, the pairs kept"),
     FAST(step_elastic, "step_elastic(p_AB, R_AB, hA, hB, kappa, grid) -> (F, area, k_n) of one pose"),
+    FAST(static_contact, "static_contact(p_AB, R_AB, hA, hB, modulus_A, modulus_B, out (n, 26)): exact field contact per pose"),
     FAST(step_held_count, "step_held_count(step) -> s pairs held"),
     FAST(step_held_get, "step_held_get(step, keys, rows, history)"),
     FAST(step_held_set, "step_held_set(step, keys, rows, history or None)"),

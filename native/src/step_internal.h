@@ -2,7 +2,8 @@
  * public API is container_contact_step.h). The step is split by concept:
  *   step.c          create, free, parameters, held state, and one step's order of work
  *   step_pairs.c    broad phase and the candidate pairs' poses
- *   step_elastic.c  the foundation integral: a pair's elastic force, area and stiffness
+ *   step_elastic.c  the foundation integral: a pair's elastic force, area and stiffness (the old law)
+ *   step_field.c    the exact field contact at any pose: the law's force, area and stiffness
  *   step_law.c      the force law: normal and friction impulses, the pairs' wrenches
  *   step_sleep.c    sleeping islands and pair reuse (which candidates the predictor is asked)
  * Internal functions are prefixed ccs_. */
@@ -82,6 +83,10 @@ int ccs_reserve_held(cc_step *s, size_t n);             /* the held rows hold n 
 /* step_elastic.c */
 void ccs_elastic_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, int grid,
                        double *F, double *area, double *k_n);
+
+/* step_field.c */
+void ccs_field_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, double *F,
+                     double *area, double *k_n);
 
 /* step_law.c */
 void ccs_gather_pairs(cc_step *s);

@@ -1,0 +1,251 @@
+/* step_field.c: the exact static hydroelastic contact of two compliant boxes at any pose
+ * (cc_static_contact; the force law's elastic part, ccs_field_stiff).
+ *
+ * Each box's pressure is E d_f(x) / min(h) inside cell f (the points nearer face f than any other),
+ * the piecewise-linear field Drake's medial-axis mesh carries exactly. Inside one cell pair (f of A,
+ * g of B) the surface p_A = p_B is a flat convex polygon: the plane clipped by the two cells' twelve
+ * half-spaces (Sutherland-Hodgman, from a square larger than both boxes). p is linear on it, so the
+ * force is p(centroid) x area along the plane's normal, and the centre of pressure a per-triangle
+ * closed form: exact, as the reference testbed/geometry/box_pressure.py (vertex enumeration, numpy)
+ * and Drake's own surface (its tetrahedra cut the same linear pieces finer) agree.
+ *
+ * The normal stiffness dF/dd, B moved by -n (n: the force's direction, A into B), in closed form:
+ * per polygon, its pressure rises uniformly (the plane moves by s = (gB . n) / ((gA - gB) . m) along
+ * its normal m) and each edge on a cell boundary moves within the plane by
+ * v = (db - (a . m) s) / (a . nu), nu the edge's outward in-plane normal, db = -(a . n) for B's own
+ * half-spaces (they move with B) and 0 for A's. So dP/dd = area x dp + sum over edges of v x (the
+ * integral of p along the edge); edges on the boxes' surfaces carry p = 0. */
+#include <math.h>
+#include <string.h>
+
+#include "step_internal.h"
+
+#define MAXV 20 /* 4 + 12 clips */
+
+typedef struct {
+  double x[MAXV][3];
+  int on[MAXV]; /* the half-space whose plane holds edge (x[i], x[i+1]); -1: the start square */
+  int n;
+} polygon;
+
+/* Clips *P by a . x <= b (half-space index id); returns the new vertex count. */
+static int clip(polygon *P, const double a[3], double b, int id) {
+  polygon out;
+  out.n = 0;
+  double scale = 1.0 + fabs(b);
+  for (int i = 0; i < P->n; ++i) {
+    int j = (i + 1) % P->n;
+    const double *xi = P->x[i], *xj = P->x[j];
+    double si = a[0] * xi[0] + a[1] * xi[1] + a[2] * xi[2] - b;
+    double sj = a[0] * xj[0] + a[1] * xj[1] + a[2] * xj[2] - b;
+    int in_i = si <= 1e-12 * scale, in_j = sj <= 1e-12 * scale;
+    if (in_i) {
+      if (out.n >= MAXV) return P->n = 0;
+      memcpy(out.x[out.n], xi, sizeof(double[3]));
+      out.on[out.n] = P->on[i]; /* the edge leaving x_i keeps its plane until cut */
+      ++out.n;
+    }
+    if (in_i != in_j) {
+      double t = si / (si - sj);
+      if (out.n >= MAXV) return P->n = 0;
+      for (int c = 0; c < 3; ++c) out.x[out.n][c] = xi[c] + t * (xj[c] - xi[c]);
+      /* entering (out -> in): the new vertex starts the rest of edge i (its plane);
+       * leaving (in -> out): the new vertex starts the clip edge (plane id) */
+      out.on[out.n] = in_i ? id : P->on[i];
+      ++out.n;
+    }
+  }
+  *P = out;
+  return P->n;
+}
+
+/* Cell f of a box of half extents h: rows a . x <= b in its own frame (a[6][3], b[6]). */
+static void cell(const double *h, int f, double a[6][3], double b[6]) {
+  int axis = f / 2;
+  double side = (f % 2) ? -1.0 : 1.0;
+  memset(a, 0, sizeof(double[6][3]));
+  a[0][axis] = side;
+  b[0] = h[axis];
+  int row = 1;
+  for (int g = 0; g < 6; ++g) {
+    if (g == f) continue;
+    int ax = g / 2;
+    double s = (g % 2) ? -1.0 : 1.0;
+    a[row][ax] += s;
+    a[row][axis] -= side;
+    b[row] = h[ax] - h[axis];
+    ++row;
+  }
+}
+
+/* May cell f of a box (half extents h) meet the axis-aligned box [lo, hi] of its frame? (necessary:
+ * somewhere in it d_f <= d_g, for each g on its own). */
+static int cell_may_meet(const double *lo, const double *hi, const double *h, int f) {
+  int axis = f / 2;
+  double min_df = h[axis] - ((f % 2) ? -lo[axis] : hi[axis]);
+  for (int ax = 0; ax < 3; ++ax) {
+    double min_abs = (lo[ax] <= 0 && hi[ax] >= 0) ? 0.0 : py_min(fabs(lo[ax]), fabs(hi[ax]));
+    double max_d = h[ax] - min_abs;
+    for (int s = 0; s < 2; ++s)
+      if (2 * ax + s != f && min_df > max_d + 1e-12) return 0;
+  }
+  return 1;
+}
+
+static double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static void cross3(const double *a, const double *b, double *c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* One cell pair's polygon: its area, pressure integral P, first moment Px, and for the stiffness,
+ * per unit depth along u: the rise of P (dP). gA, cA: p_A = gA . x + cA; gB, cB likewise (A's frame). */
+static void cell_pair(const double aH[12][3], const double bH[12], const double gA[3], double cA, const double gB[3],
+                      double cB, double ext, cc_field_contact *out) {
+  double diff[3] = {gA[0] - gB[0], gA[1] - gB[1], gA[2] - gB[2]};
+  double norm = sqrt(dot3(diff, diff));
+  if (!(norm > 0)) return;
+  double m[3] = {-diff[0] / norm, -diff[1] / norm, -diff[2] / norm}; /* A into B */
+  double c = (cA - cB) / norm;                                       /* m . x = c */
+  double t[3] = {fabs(m[0]) < 0.9 ? 1.0 : 0.0, fabs(m[0]) < 0.9 ? 0.0 : 1.0, 0.0}, e1[3], e2[3];
+  cross3(m, t, e1);
+  double l1 = sqrt(dot3(e1, e1));
+  for (int k = 0; k < 3; ++k) e1[k] /= l1;
+  cross3(m, e1, e2);
+  polygon P;
+  P.n = 4;
+  static const double corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+  for (int i = 0; i < 4; ++i) {
+    for (int k = 0; k < 3; ++k) P.x[i][k] = c * m[k] + ext * (corner[i][0] * e1[k] + corner[i][1] * e2[k]);
+    P.on[i] = -1;
+  }
+  for (int r = 0; r < 12 && P.n >= 3; ++r) clip(&P, aH[r], bH[r], r);
+  if (P.n < 3) return;
+  double area = 0, Pint = 0, Px[3] = {0, 0, 0};
+  const double *x0 = P.x[0];
+  double p0 = dot3(gA, x0) + cA;
+  for (int i = 1; i + 1 < P.n; ++i) {
+    const double *x1 = P.x[i], *x2 = P.x[i + 1];
+    double d1[3] = {x1[0] - x0[0], x1[1] - x0[1], x1[2] - x0[2]}, d2[3] = {x2[0] - x0[0], x2[1] - x0[1], x2[2] - x0[2]}, cr[3];
+    cross3(d1, d2, cr);
+    double A = 0.5 * fabs(dot3(cr, m));
+    double p1 = dot3(gA, x1) + cA, p2 = dot3(gA, x2) + cA;
+    area += A;
+    Pint += A * (p0 + p1 + p2) / 3.0;
+    for (int k = 0; k < 3; ++k)
+      Px[k] += A / 12.0 * ((p0 + p1 + p2) * (x0[k] + x1[k] + x2[k]) + p0 * x0[k] + p1 * x1[k] + p2 * x2[k]);
+  }
+  if (!(area > 0)) return;
+  for (int k = 0; k < 3; ++k) {
+    out->force[k] += Pint * m[k];
+    out->first_moment[k] += Px[k];
+  }
+  double mom[3];
+  cross3(Px, m, mom);
+  for (int k = 0; k < 3; ++k) out->moment[k] += mom[k];
+  out->pressure_integral += Pint;
+  out->area += area;
+  out->pieces += 1;
+  /* the stiffness, linear in B's displacement -u: dP = w . u, and d(force) = m (w . u) */
+  double dm = dot3(diff, m); /* (gA - gB) . m = -norm */
+  double gA_m = dot3(gA, m);
+  double w[3]; /* area x dp/du: the plane moves by s = gB . u / dm, the pressure rises by gA . m s */
+  for (int k = 0; k < 3; ++k) w[k] = area * gA_m * gB[k] / dm;
+  double cr[3], d1[3], d2[3];
+  for (int k = 0; k < 3; ++k) {
+    d1[k] = P.x[1][k] - P.x[0][k];
+    d2[k] = P.x[2][k] - P.x[0][k];
+  }
+  cross3(d1, d2, cr);
+  double orient = dot3(cr, m) >= 0 ? 1.0 : -1.0; /* counter-clockwise about m: outward = edge x m */
+  for (int i = 0; i < P.n; ++i) {
+    int id = P.on[i];
+    if (id < 0) continue;
+    const double *xi = P.x[i], *xj = P.x[(i + 1) % P.n];
+    double edge[3] = {xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]}, nu[3];
+    double L = sqrt(dot3(edge, edge));
+    if (!(L > 0)) continue;
+    cross3(edge, m, nu);
+    for (int k = 0; k < 3; ++k) nu[k] *= orient / L;
+    double a_nu = dot3(aH[id], nu);
+    if (fabs(a_nu) < 1e-12) continue;
+    /* the edge's outward rate: v = (db - (a . m) s) / (a . nu), db = -a . u for B's half-spaces */
+    double p_mid = 0.5 * (dot3(gA, xi) + dot3(gA, xj)) + cA; /* the integral of p along it over L */
+    double a_m = dot3(aH[id], m), q = L * p_mid / a_nu;
+    for (int k = 0; k < 3; ++k) w[k] += q * ((id >= 6 ? -aH[id][k] : 0.0) - a_m * gB[k] / dm);
+  }
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l) out->dforce_ddepth[3 * k + l] += m[k] * w[l];
+}
+
+void cc_static_contact(const double p[3], const double R[9], const double hA[3], const double hB[3], double E_A,
+                       double E_B, cc_field_contact *out) {
+  memset(out, 0, sizeof(*out));
+  /* the overlap's bounds in each frame */
+  double loA[3], hiA[3], loB[3], hiB[3], pBA[3];
+  for (int a = 0; a < 3; ++a) {
+    double ext = fabs(R[3 * a]) * hB[0] + fabs(R[3 * a + 1]) * hB[1] + fabs(R[3 * a + 2]) * hB[2];
+    loA[a] = py_max(p[a] - ext, -hA[a]);
+    hiA[a] = py_min(p[a] + ext, hA[a]);
+    pBA[a] = -(R[a] * p[0] + R[3 + a] * p[1] + R[6 + a] * p[2]);
+  }
+  for (int a = 0; a < 3; ++a) {
+    double ext = fabs(R[a]) * hA[0] + fabs(R[3 + a]) * hA[1] + fabs(R[6 + a]) * hA[2];
+    loB[a] = py_max(pBA[a] - ext, -hB[a]);
+    hiB[a] = py_min(pBA[a] + ext, hB[a]);
+  }
+  for (int a = 0; a < 3; ++a)
+    if (loA[a] > hiA[a] || loB[a] > hiB[a]) return; /* apart */
+  double minA = py_min(hA[0], py_min(hA[1], hA[2])), minB = py_min(hB[0], py_min(hB[1], hB[2]));
+  double ext = 4.0 * (hA[0] + hA[1] + hA[2] + hB[0] + hB[1] + hB[2]) + 2.0 * sqrt(dot3(p, p));
+  for (int g = 0; g < 6; ++g) {
+    if (!cell_may_meet(loB, hiB, hB, g)) continue;
+    double aB[6][3], bB[6];
+    cell(hB, g, aB, bB);
+    int axB = g / 2;
+    double sB = (g % 2) ? -1.0 : 1.0, kB = E_B / minB;
+    /* B's field and cell in A's frame: x_B = R^T (x - p) */
+    double gB[3] = {-sB * kB * R[3 * 0 + axB], -sB * kB * R[3 * 1 + axB], -sB * kB * R[3 * 2 + axB]};
+    double cB = kB * hB[axB] - dot3(gB, p);
+    double aH[12][3], bH[12];
+    for (int r = 0; r < 6; ++r) {
+      for (int k = 0; k < 3; ++k) aH[6 + r][k] = R[3 * k] * aB[r][0] + R[3 * k + 1] * aB[r][1] + R[3 * k + 2] * aB[r][2];
+      bH[6 + r] = bB[r] + dot3(aH[6 + r], p);
+    }
+    for (int f = 0; f < 6; ++f) {
+      if (!cell_may_meet(loA, hiA, hA, f)) continue;
+      double aA[6][3], bA[6];
+      cell(hA, f, aA, bA);
+      for (int r = 0; r < 6; ++r) {
+        memcpy(aH[r], aA[r], sizeof(double[3]));
+        bH[r] = bA[r];
+      }
+      int axA = f / 2;
+      double sA = (f % 2) ? -1.0 : 1.0, kA = E_A / minA;
+      double gA[3] = {0, 0, 0};
+      gA[axA] = -sA * kA;
+      cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out);
+    }
+  }
+  double F = sqrt(dot3(out->force, out->force));
+  if (!(F > 0)) return;
+  double n[3] = {out->force[0] / F, out->force[1] / F, out->force[2] / F}, Jn[3];
+  for (int k = 0; k < 3; ++k) Jn[k] = dot3(out->dforce_ddepth + 3 * k, n);
+  out->stiffness = dot3(Jn, n);
+  for (int k = 0; k < 3; ++k) out->cop[k] = out->first_moment[k] / out->pressure_integral;
+}
+
+/* The force law's elastic part: the exact field contact at the modulus the pair's kappa stands for
+ * (two equal fields in series: kappa = E / (min h_A + min h_B)); *F = |force| [N], *area [m^2],
+ * *k_n = dF/dd [N/m] (never below 0). */
+void ccs_field_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, double *F,
+                     double *area, double *k_n) {
+  double E = kappa * (py_min(hA[0], py_min(hA[1], hA[2])) + py_min(hB[0], py_min(hB[1], hB[2])));
+  cc_field_contact c;
+  cc_static_contact(p, R, hA, hB, E, E, &c);
+  *F = sqrt(dot3(c.force, c.force));
+  *area = c.area;
+  *k_n = c.stiffness > 0 ? c.stiffness : 0.0;
+}
