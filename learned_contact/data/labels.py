@@ -35,6 +35,7 @@ LABEL_VERSION = 4  # bump when labelling or sampling changes meaning (2: forces 
 # 3: the centre of pressure is the exact integral, the one-point rule's beside it;
 # 4: the weighted sums are numpy reductions, not BLAS: the same bits on every CPU)
 _BISECT_TOL = 1e-6  # [m]
+LABEL_MODULUS = 1e9  # [Pa] both boxes' hydroelastic modulus when labelled (the shipped SDF's)
 
 # Per-process state: (type_a, type_b) -> testbed.contact.pair_plant.ContainerPair
 _SCENES: dict = {}
@@ -169,7 +170,9 @@ class Dataset:
     cop (n, 3) [m] the exact centre of pressure; cop_one_point (n, 3) [m] the one-point
     rule's (what Drake's discrete solver applies); normal (n, 3) unit A->B; depth (n,) [m]; tag (n,) index into
     geometry.CONTACT_TYPES; pp_point (n, 3) [m], pp_normal (n, 3), pp_depth (n,) [m]:
-    Drake's point-contact answer. n_dropped: proposals without a contact surface.
+    Drake's point-contact answer. n_dropped: proposals without a contact surface. force (n, 3) [N]:
+    Drake's static elastic force on B at the pose (both boxes compliant at LABEL_MODULUS; the force
+    is linear in the modulus), None where a Dataset was built without it.
     """
 
     distribution: str
@@ -187,6 +190,7 @@ class Dataset:
     pp_depth: np.ndarray
     cop_one_point: np.ndarray
     n_dropped: int
+    force: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.depth)
@@ -219,7 +223,7 @@ def make_dataset(distribution: str, n: int, seed: int, *, types=("1CC", "1AA", "
         distribution=distribution, p_AB=p_AB, R_AB=props.R_AB, size_A=size_A, size_B=size_B,
         cop=get("cop"), normal=get("normal"), depth=get("depth")[:, 0], area=get("area")[:, 0],
         tag=tag, pp_point=get("pp_point"), pp_normal=get("pp_normal"), pp_depth=get("pp_depth")[:, 0],
-        cop_one_point=get("cop_one_point"), n_dropped=0,
+        cop_one_point=get("cop_one_point"), n_dropped=0, force=get("force"),
     )
     ds = ds.subset(ok)
     return dataclasses.replace(ds, n_dropped=int((~ok).sum()))

@@ -24,7 +24,8 @@ def concat_datasets(sets) -> Dataset:
     fields = {}
     for f in dataclasses.fields(Dataset):
         vals = [getattr(d, f.name) for d in sets]
-        fields[f.name] = np.concatenate(vals) if isinstance(vals[0], np.ndarray) else vals[0]
+        fields[f.name] = (np.concatenate(vals) if all(isinstance(v, np.ndarray) for v in vals)
+                          else None if f.name == "force" else vals[0])
     fields["n_dropped"] = sum(d.n_dropped for d in sets)
     fields["distribution"] = "+".join(d.distribution for d in sets)
     return Dataset(**fields)

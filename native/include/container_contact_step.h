@@ -70,7 +70,9 @@ typedef struct cc_step_params {
   double slip;          /* [m/s] regularisation speed of the regularised Coulomb and torsional laws (> 0) [1e-4] */
   double stiction;      /* [-] cap of h c / m_red of the regularised laws, in [0, 1] [0.5] */
   int torsional;        /* 1 = regularised torsional friction about the normal, 0 = none [1] */
-  int grid;             /* quadrature points per side of the face overlap (>= 1) [4] */
+  int grid;             /* the elastic force: 0 = the exact field contact at any pose (cc_static_contact) [0];
+                         * >= 1: the former Winkler foundation on the face overlap with that many
+                         * midpoints (cc_step_elastic; right only on level, aligned faces) */
   int sweeps;           /* projected Gauss-Seidel sweeps of the implicit normal force (>= 1) [4] */
   int n_types;          /* rows of kappa (>= 1) */
   const double *kappa;  /* (n_types, n_types) [Pa/m] Winkler foundation stiffness per type pair, symmetric;
@@ -80,7 +82,7 @@ typedef struct cc_step_params {
 
 typedef struct cc_step cc_step; /* opaque: scene, parameters, held state, workspace */
 
-/* Copies scene and params (checked: finite sizes > 0, h > 0, grid, sweeps >= 1, kappa finite
+/* Copies scene and params (checked: finite sizes > 0, h > 0, grid >= 0, sweeps >= 1, kappa finite
  * >= 0, type_index in range); NULL with *status (may be NULL) CC_BAD_ARGUMENT or
  * CC_STEP_NO_MEMORY. The held state starts empty (cc_step_forget). */
 cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params, int *status);

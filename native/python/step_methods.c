@@ -88,7 +88,7 @@ static PyObject *py_step_new(PyObject *self, PyObject *const *args, Py_ssize_t n
   cc_step *s = cc_step_create(&scene, &q, &status);
   if (s == NULL) {
     cc_py_status_error(status, "step_new (sizes > 0, free bodies' mass > 0, h > 0, slip > 0, stiction in [0, 1], "
-                         "grid and sweeps >= 1, kappa >= 0, type_index within kappa)");
+                         "grid >= 0, sweeps >= 1, kappa >= 0, type_index within kappa)");
     goto done;
   }
   result = PyCapsule_New(s, STEP_CAPSULE, step_destructor);

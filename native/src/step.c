@@ -24,7 +24,7 @@ static int check_params(const cc_step_params *q, const int64_t *type, size_t m) 
   if (!(isfinite(q->h) && q->h > 0) || !(isfinite(q->margin) && q->margin >= 0) ||
       !(isfinite(q->dissipation) && q->dissipation >= 0) || !(isfinite(q->mu) && q->mu >= 0) ||
       !(isfinite(q->stick_hw) && q->stick_hw >= 0) || !(isfinite(q->stick_zeta) && q->stick_zeta >= 0) ||
-      !(isfinite(q->slip) && q->slip > 0) || !(q->stiction >= 0 && q->stiction <= 1) || q->grid < 1 ||
+      !(isfinite(q->slip) && q->slip > 0) || !(q->stiction >= 0 && q->stiction <= 1) || q->grid < 0 ||
       q->sweeps < 1 || q->n_types < 1 || q->kappa == NULL)
     return 0;
   size_t t2 = (size_t)q->n_types * (size_t)q->n_types;

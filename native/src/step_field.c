@@ -29,16 +29,29 @@ typedef struct {
 } polygon;
 
 /* Clips *P by a . x <= b (half-space index id); returns the new vertex count. */
-static int clip(polygon *P, const double a[3], double b, int id) {
+static double dot3(const double *a, const double *b);
+
+static int clip(polygon *P, const double a[3], double b, int id, const double m[3]) {
   polygon out;
   out.n = 0;
-  double scale = 1.0 + fabs(b);
+  /* a half-space whose plane is (nearly) parallel to the polygon's keeps all of it or none: its
+   * slack is the same everywhere but for round-off, which must not cut the polygon */
+  double am = dot3(a, m), aa = dot3(a, a);
+  if (aa - am * am <= 1e-18 * aa) {
+    double mean = 0;
+    for (int i = 0; i < P->n; ++i) mean += dot3(a, P->x[i]) - b;
+    if (mean > 0) P->n = 0;
+    return P->n;
+  }
   for (int i = 0; i < P->n; ++i) {
     int j = (i + 1) % P->n;
     const double *xi = P->x[i], *xj = P->x[j];
     double si = a[0] * xi[0] + a[1] * xi[1] + a[2] * xi[2] - b;
     double sj = a[0] * xj[0] + a[1] * xj[1] + a[2] * xj[2] - b;
-    int in_i = si <= 1e-12 * scale, in_j = sj <= 1e-12 * scale;
+    /* exact signs, no tolerance: an edge is cut only where its ends lie on opposite sides, so the cut
+     * lies on it (t in [0, 1]); a tolerance here once let a plane nearly parallel to the polygon
+     * (t from two round-off-sized slacks) put a vertex metres outside an earlier half-space */
+    int in_i = si <= 0, in_j = sj <= 0;
     if (in_i) {
       if (out.n >= MAXV) return P->n = 0;
       memcpy(out.x[out.n], xi, sizeof(double[3]));
@@ -46,7 +59,7 @@ static int clip(polygon *P, const double a[3], double b, int id) {
       ++out.n;
     }
     if (in_i != in_j) {
-      double t = si / (si - sj);
+      double t = py_min(1.0, py_max(0.0, si / (si - sj)));
       if (out.n >= MAXV) return P->n = 0;
       for (int c = 0; c < 3; ++c) out.x[out.n][c] = xi[c] + t * (xj[c] - xi[c]);
       /* entering (out -> in): the new vertex starts the rest of edge i (its plane);
@@ -121,7 +134,7 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
     for (int k = 0; k < 3; ++k) P.x[i][k] = c * m[k] + ext * (corner[i][0] * e1[k] + corner[i][1] * e2[k]);
     P.on[i] = -1;
   }
-  for (int r = 0; r < 12 && P.n >= 3; ++r) clip(&P, aH[r], bH[r], r);
+  for (int r = 0; r < 12 && P.n >= 3; ++r) clip(&P, aH[r], bH[r], r, m);
   if (P.n < 3) return;
   double area = 0, Pint = 0, Px[3] = {0, 0, 0};
   const double *x0 = P.x[0];
@@ -183,6 +196,10 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
 void cc_static_contact(const double p[3], const double R[9], const double hA[3], const double hB[3], double E_A,
                        double E_B, cc_field_contact *out) {
   memset(out, 0, sizeof(*out));
+  /* in contact where no face axis separates them, as the law has always judged it (boxes that only
+   * touch, at zero depth, would leave 1e-20 N of round-off in the integrals otherwise) */
+  int owner, axis;
+  if (!(ccs_face_axis_overlap(p, R, hA, hB, &owner, &axis) > 0)) return;
   /* the overlap's bounds in each frame */
   double loA[3], hiA[3], loB[3], hiB[3], pBA[3];
   for (int a = 0; a < 3; ++a) {
@@ -228,6 +245,10 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
       gA[axA] = -sA * kA;
       cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out);
     }
+  }
+  if (!(out->pressure_integral > 0)) {
+    memset(out, 0, sizeof(*out));
+    return;
   }
   double F = sqrt(dot3(out->force, out->force));
   if (!(F > 0)) return;

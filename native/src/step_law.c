@@ -145,7 +145,10 @@ void ccs_pair_wrenches(cc_step *s, const double *w, const double *v, double *out
       hB[a] = 0.5 * s->size_B[3 * r + a];
     }
     double F, area, k_n;
-    ccs_elastic_stiff(s->p_AB + 3 * r, s->R_AB + 9 * r, hA, hB, s->kap[r], q->grid, &F, &area, &k_n);
+    if (q->grid == 0) /* the exact field contact, any pose (step_field.c) */
+      ccs_field_stiff(s->p_AB + 3 * r, s->R_AB + 9 * r, hA, hB, s->kap[r], &F, &area, &k_n);
+    else /* the former Winkler foundation on the face overlap (step_elastic.c), kept for comparison */
+      ccs_elastic_stiff(s->p_AB + 3 * r, s->R_AB + 9 * r, hA, hB, s->kap[r], q->grid, &F, &area, &k_n);
     if (F <= 0) continue;
     size_t i = (size_t)ia[r], j = (size_t)ib[r];
     s->touch[r] = 1;

@@ -229,8 +229,11 @@ def test_bad_arguments_are_refused_in_one_line():
     inertia, types, kappa = np.tile(np.eye(3), (2, 1, 1)), np.zeros(2, np.int64), np.ones((1, 1))
     params = (0.05, 1e-3, 5.0, 0.4, 0.3, 0.5, 1e-4, 0.5, 1.0, 4, 4)
     core = _native.step_new(size, free, mass, inertia, types, kappa, params)
-    with pytest.raises(ValueError, match="grid and sweeps"):
-        _native.step_new(size, free, mass, inertia, types, kappa, params[:9] + (0, 4))
+    with pytest.raises(ValueError, match="grid >= 0, sweeps >= 1"):
+        _native.step_new(size, free, mass, inertia, types, kappa, params[:9] + (-1, 4))
+    with pytest.raises(ValueError, match="grid >= 0, sweeps >= 1"):
+        _native.step_new(size, free, mass, inertia, types, kappa, params[:9] + (0, 0))
+    _native.step_new(size, free, mass, inertia, types, kappa, params[:9] + (0, 4))  # grid 0: the exact field contact
     with pytest.raises(ValueError, match="step_new"):
         _native.step_new(size, free, mass, inertia, np.array([0, 1], np.int64), kappa, params)  # type beyond kappa
     with pytest.raises(TypeError, match="p_WB: expected float64"):

@@ -72,7 +72,10 @@ class LearnedDynamicsConfig:
     slip_speed: float = 1e-4  # [m/s] Coulomb regularisation speed (regularised law, torsion)
     stiction: float = 0.5  # [-] cap of h c / m_red of the viscous friction (stable below 1)
     torsional_friction: bool = True
-    grid: int = 4  # quadrature points per side of the face overlap
+    # the elastic force: 0 = the exact field contact at any pose (static.py, native/src/step_field.c);
+    # N >= 1 = the former Winkler foundation on the face overlap with N midpoints (right only where
+    # faces lie level and aligned; kept to compare with)
+    grid: int = 0
     normal_sweeps: int = 4  # projected Gauss-Seidel sweeps of the linearly implicit normal force per step
     shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
     truth_every_steps: int = 20  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
@@ -274,8 +277,8 @@ class LearnedDynamicsEffect(Effect):
             raise self.fail("truth_every_steps", f"expected a whole number of steps >= 1, got {c.truth_every_steps}")
         if not (isinstance(c.normal_sweeps, int) and c.normal_sweeps >= 1):
             raise self.fail("normal_sweeps", f"expected a whole number >= 1, got {c.normal_sweeps}")
-        if not (isinstance(c.grid, int) and c.grid >= 1):
-            raise self.fail("grid", f"expected a whole number >= 1, got {c.grid}")
+        if not (isinstance(c.grid, int) and not isinstance(c.grid, bool) and c.grid >= 0):
+            raise self.fail("grid", f"expected 0 (the exact field contact) or a whole number of foundation points >= 1, got {c.grid}")
         for field in ("v_sleep", "w_sleep", "t_sleep", "eps_p", "eps_R"):
             value = getattr(c.sleeping, field)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
