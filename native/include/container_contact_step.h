@@ -70,9 +70,9 @@ typedef struct cc_step_params {
   double slip;          /* [m/s] regularisation speed of the regularised Coulomb and torsional laws (> 0) [1e-4] */
   double stiction;      /* [-] cap of h c / m_red of the regularised laws, in [0, 1] [0.5] */
   int torsional;        /* 1 = regularised torsional friction about the normal, 0 = none [1] */
-  int grid;             /* the elastic force: 0 = the exact field contact at any pose (cc_static_contact) [0];
-                         * >= 1: the former Winkler foundation on the face overlap with that many
-                         * midpoints (cc_step_elastic; right only on level, aligned faces) */
+  int grid;             /* the elastic force: >= 1: the Winkler foundation on the face overlap with that
+                         * many midpoints (cc_step_elastic; right only on level, aligned faces) [4];
+                         * 0: the exact field contact at any pose (cc_static_contact) */
   int sweeps;           /* projected Gauss-Seidel sweeps of the implicit normal force (>= 1) [4] */
   int n_types;          /* rows of kappa (>= 1) */
   const double *kappa;  /* (n_types, n_types) [Pa/m] Winkler foundation stiffness per type pair, symmetric;

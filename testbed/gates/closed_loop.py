@@ -146,7 +146,12 @@ FULL_EXTRA_WHY = {
 # Shipped scenes with container-container contact (`testbed scenes` marks them [cc]) that no
 # closed-loop set runs, each with the reason (tests/closed_loop/test_closed_loop_set.py holds
 # every [cc] scene to DEFAULT_SCENES, FULL_EXTRA or this).
-EXCLUDED: dict[str, str] = {}
+EXCLUDED: dict[str, str] = {
+    "corner_drop": "not judged yet: the learned loop lands the corner-first drop 108 mm from the discrete truth with "
+                   "the shipped foundation law and 229 mm with the exact field force (grid 0), Drake point contact 60 mm, "
+                   "the truth ladder's own spread 29 mm (discrete against continuous); the rebound and the rocking "
+                   "after it differ (dissipation), which the force alone does not decide (CHANGELOG 0.9.0)",
+}
 SMOKE_DURATION_S = 0.3  # two_stack only: shows the section, costs ~2 s
 
 # compare.json figures kept in the record (scalars; the rest stays in the twin-run files)
