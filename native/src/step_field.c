@@ -34,19 +34,30 @@ static double dot3(const double *a, const double *b);
 static int clip(polygon *P, const double a[3], double b, int id, const double m[3]) {
   polygon out;
   out.n = 0;
-  /* a half-space whose plane is (nearly: within 1e-7 rad) parallel to the polygon's keeps all of it
-   * or none: its slack is the same everywhere but for round-off, which must not cut the polygon. A
-   * polygon lying ON the plane is kept: two aligned boxes of one width put the surface of an end
-   * cell exactly on the other box's medial plane (the fields' equal-pressure plane is that plane),
-   * and round-off had dropped those rim pieces at the aligned pose only (6.6e-5 of a stack's force,
-   * a standing vibration in the loop). */
-  double am = dot3(a, m), aa = dot3(a, a);
-  if (aa - am * am <= 1e-14 * aa) {
-    double least = INFINITY;
-    for (int i = 0; i < P->n; ++i) least = py_min(least, dot3(a, P->x[i]) - b);
-    if (least > 1e-12 * (1.0 + fabs(b))) P->n = 0;
+  /* A half-space whose slack is the same over the whole polygon but for round-off (its plane parallel
+   * to the polygon's) keeps all of it or none: round-off must not decide a cut. A polygon lying ON the
+   * plane (slack zero within round-off) is kept for B's half-spaces and dropped for A's: two aligned
+   * boxes of one width put the surface of each end cell exactly on a medial plane, of B's (cells A+y,
+   * B-z) and of A's (A+z, B+y) alike; each one-sided limit (B a hair wider or narrower) holds one of the
+   * two, of the same pressure, so exactly one is counted. Any tilt the slacks resolve is cut exactly
+   * below, which finds where along the rim one piece gives way to the other. */
+  double least = INFINITY, most = -INFINITY, size = fabs(b);
+  for (int i = 0; i < P->n; ++i) {
+    double si = dot3(a, P->x[i]) - b;
+    least = py_min(least, si);
+    most = py_max(most, si);
+    size = py_max(size, fabs(a[0] * P->x[i][0]) + fabs(a[1] * P->x[i][1]) + fabs(a[2] * P->x[i][2]));
+  }
+  /* the slacks' round-off, and no less than 0.1 nm: a plane within 1e-8 rad of a rim piece's (tilts a
+   * resting stack sits at) is taken as that piece's own; the exact cut there moved the force by 4e-5
+   * between poses 1e-14 rad apart, the piece's share at most O(tilt) */
+  double tol = py_max(64 * 2.220446049250313e-16 * (1.0 + size), 1e-10 * sqrt(dot3(a, a)));
+  if (most - least <= tol) {
+    int on_plane = most <= tol && least >= -tol;
+    if (on_plane ? id < 6 : least > 0) P->n = 0;
     return P->n;
   }
+  (void)m;
   for (int i = 0; i < P->n; ++i) {
     int j = (i + 1) % P->n;
     const double *xi = P->x[i], *xj = P->x[j];
