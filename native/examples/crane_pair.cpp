@@ -171,7 +171,7 @@ int run_steps(const Model &model, const Options &opt) {
   params.slip = 1e-4;
   params.stiction = 0.5;
   params.torsional = 1;
-  params.grid = 4; /* the foundation; 0: the exact field contact (cc_static_contact) */
+  params.grid = 0; /* the exact field contact (cc_static_contact); >= 1: the foundation */
   params.sweeps = 4;
   params.n_types = 1;
   params.kappa = &kappa;

@@ -70,9 +70,10 @@ typedef struct cc_step_params {
   double slip;          /* [m/s] regularisation speed of the regularised Coulomb and torsional laws (> 0) [1e-4] */
   double stiction;      /* [-] cap of h c / m_red of the regularised laws, in [0, 1] [0.5] */
   int torsional;        /* 1 = regularised torsional friction about the normal, 0 = none [1] */
-  int grid;             /* the elastic force: >= 1: the Winkler foundation on the face overlap with that
-                         * many midpoints (cc_step_elastic; right only on level, aligned faces) [4];
-                         * 0: the exact field contact at any pose (cc_static_contact) */
+  int grid;             /* the elastic force: 0 = the exact field contact at any pose (cc_static_contact),
+                         * with Hunt-Crossley's torque from its damping inertia [0]; >= 1: the Winkler
+                         * foundation on the face overlap with that many midpoints (cc_step_elastic;
+                         * right only on level, aligned faces), damped at the point only */
   int sweeps;           /* projected Gauss-Seidel sweeps of the implicit normal force (>= 1) [4] */
   int n_types;          /* rows of kappa (>= 1) */
   const double *kappa;  /* (n_types, n_types) [Pa/m] Winkler foundation stiffness per type pair, symmetric;
@@ -229,6 +230,9 @@ typedef struct cc_field_contact {
   double area;              /* [m^2] the surface's area */
   double dforce_ddepth[9];  /* [N/m] row-major J: d(force) = J u dd when B moves by -u dd */
   double stiffness;         /* [N/m] n . J n along the force's direction n: dF/dd */
+  double damping_inertia[9]; /* [N m^2] row-major: the integral of p (r x m)(r x m)^T dA, r from the centre of
+                              * pressure, m the surface's normal: Hunt-Crossley's torque on B is
+                              * -d damping_inertia (w_B - w_A) (d [s/m]; the force's part is d F v_n) */
   int pieces;               /* cell pairs carrying part of the surface */
 } cc_field_contact;
 

@@ -283,9 +283,10 @@ static PyObject *py_step_elastic(PyObject *self, PyObject *const *args, Py_ssize
   return result;
 }
 
-/* static_contact(p_AB (n, 3), R_AB (n, 3, 3), hA (n, 3), hB (n, 3), modulus_A, modulus_B, out (n, 26)) -> None:
- * per pose one row of cc_static_contact: force (3), moment (3), cop (3), first_moment (3),
- * pressure_integral, area, dforce_ddepth (9), stiffness, pieces (as a double) */
+/* static_contact(p_AB (n, 3), R_AB (n, 3, 3), hA (n, 3), hB (n, 3), modulus_A, modulus_B, out) -> None:
+ * out (n, 26): per pose one row of cc_static_contact: force (3), moment (3), cop (3), first_moment (3),
+ * pressure_integral, area, dforce_ddepth (9), stiffness, pieces (as a double), 0; out of 35 n doubles:
+ * those rows, then the damping inertias (n, 9) */
 static PyObject *py_static_contact(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
   (void)self;
   ARGS(7, "p_AB, R_AB, hA, hB, modulus_A, modulus_B, out");
@@ -299,8 +300,8 @@ static PyObject *py_static_contact(PyObject *self, PyObject *const *args, Py_ssi
       cc_py_take(&b, args[2], "hA", 'd', -1, 0, 0, &hA, &nA) == 0 && cc_py_take(&b, args[3], "hB", 'd', -1, 0, 0, &hB, &nB) == 0 &&
       cc_py_take(&b, args[6], "out", 'd', -1, 1, 0, &out, &nout) == 0) {
     Py_ssize_t n = n3 / 3;
-    if (n3 != 3 * n || n9 != 9 * n || nA != 3 * n || nB != 3 * n || nout != 26 * n) {
-      PyErr_SetString(PyExc_ValueError, "static_contact: p_AB (n, 3), R_AB (n, 3, 3), hA, hB (n, 3), out (n, 26)");
+    if (n3 != 3 * n || n9 != 9 * n || nA != 3 * n || nB != 3 * n || (nout != 26 * n && nout != 35 * n)) {
+      PyErr_SetString(PyExc_ValueError, "static_contact: p_AB (n, 3), R_AB (n, 3, 3), hA, hB (n, 3), out (n, 26) or (n, 35)");
     } else {
       for (Py_ssize_t i = 0; i < n; ++i) {
         cc_field_contact c;
@@ -317,6 +318,7 @@ static PyObject *py_static_contact(PyObject *self, PyObject *const *args, Py_ssi
         o[23] = c.stiffness;
         o[24] = (double)c.pieces;
         o[25] = 0.0;
+        if (nout == 35 * n) memcpy((double *)out + 26 * n + 9 * i, c.damping_inertia, 9 * sizeof(double));
       }
       Py_INCREF(Py_None);
       result = Py_None;

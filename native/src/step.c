@@ -38,7 +38,8 @@ static int check_params(const cc_step_params *q, const int64_t *type, size_t m) 
 void cc_step_free(cc_step *s) {
   if (s == NULL) return;
   void *owned[] = {s->size, s->half, s->radius, s->mass, s->I_Bo, s->free, s->type, s->kappa, s->keys, s->rows,
-                   s->history, s->p, s->R, s->lo, s->hi, s->box, s->box_free, s->inv_m, s->invI, s->acc, s->dacc, s->history_next,
+                   s->history, s->p, s->R, s->lo, s->hi, s->box, s->box_free, s->inv_m, s->invI, s->n_touch, s->Jd, s->acc,
+                   s->dacc, s->history_next,
                    s->order, s->order_tmp, s->need, s->cand, s->cand_tmp, s->ia, s->ib, s->p_AB, s->R_AB,
                    s->size_A, s->size_B, s->point_A, s->normal_A, s->fn, s->f_W, s->p_W, s->n_W, s->area, s->kap,
                    s->held, s->anchors_next, s->stuck_next, s->F_el, s->g, s->W_rr, s->vn0, s->an_ext, s->rA,
@@ -104,6 +105,7 @@ cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params
            ccs_resize((void **)&s->p, 3 * m, sizeof(double)) && ccs_resize((void **)&s->R, 9 * m, sizeof(double)) &&
            ccs_resize((void **)&s->lo, 3 * m, sizeof(double)) && ccs_resize((void **)&s->hi, 3 * m, sizeof(double)) &&
            ccs_resize((void **)&s->inv_m, m, sizeof(double)) && ccs_resize((void **)&s->invI, 9 * m, sizeof(double)) &&
+           ccs_resize((void **)&s->n_touch, m, sizeof(double)) &&
            ccs_resize((void **)&s->acc, 6 * m, sizeof(double)) && ccs_resize((void **)&s->dacc, 6 * m, sizeof(double)) &&
            ccs_resize((void **)&s->order, m, sizeof(size_t)) && ccs_resize((void **)&s->order_tmp, m, sizeof(size_t)) &&
            ccs_resize((void **)&s->need, m, 1) && ccs_resize((void **)&s->box, 6 * m, sizeof(double)) &&
@@ -175,7 +177,7 @@ int ccs_reserve_pairs(cc_step *s, size_t n) {
       {(void **)&s->q_p, 3 * sizeof(double)},   {(void **)&s->q_R, 9 * sizeof(double)},
       {(void **)&s->q_sA, 3 * sizeof(double)},  {(void **)&s->q_sB, 3 * sizeof(double)},
       {(void **)&s->q_pt, 3 * sizeof(double)},  {(void **)&s->q_nm, 3 * sizeof(double)},
-      {(void **)&s->q_pose, 12 * sizeof(double)},
+      {(void **)&s->q_pose, 12 * sizeof(double)}, {(void **)&s->Jd, 9 * sizeof(double)},
   };
   for (size_t i = 0; i < sizeof arrays / sizeof arrays[0]; ++i)
     if (!ccs_resize(arrays[i].ptr, cap, arrays[i].elem)) return 0;

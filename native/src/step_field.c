@@ -1,5 +1,5 @@
 /* step_field.c: the exact static hydroelastic contact of two compliant boxes at any pose
- * (cc_static_contact; the force law's elastic part, ccs_field_stiff).
+ * (cc_static_contact; the force law's elastic part and its rotational damping, ccs_field_stiff).
  *
  * Each box's pressure is E d_f(x) / min(h) inside cell f (the points nearer face f than any other),
  * the piecewise-linear field Drake's medial-axis mesh carries exactly. Inside one cell pair (f of A,
@@ -130,8 +130,17 @@ static void cross3(const double *a, const double *b, double *c) {
 
 /* One cell pair's polygon: its area, pressure integral P, first moment Px, and for the stiffness,
  * per unit depth along u: the rise of P (dP). gA, cA: p_A = gA . x + cA; gB, cB likewise (A's frame). */
+typedef struct {
+  double m[3], P, Px[3], S2[9]; /* normal, integral of p, of p x, of p x x^T */
+} piece;
+
+typedef struct {
+  piece at[40];
+  int n;
+} pieces;
+
 static void cell_pair(const double aH[12][3], const double bH[12], const double gA[3], double cA, const double gB[3],
-                      double cB, double ext, cc_field_contact *out) {
+                      double cB, double ext, cc_field_contact *out, pieces *kept) {
   double diff[3] = {gA[0] - gB[0], gA[1] - gB[1], gA[2] - gB[2]};
   double norm = sqrt(dot3(diff, diff));
   /* where the two fields (nearly) coincide (the end cells of two aligned boxes of one width, side by
@@ -156,7 +165,7 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
   }
   for (int r = 0; r < 12 && P.n >= 3; ++r) clip(&P, aH[r], bH[r], r, m);
   if (P.n < 3) return;
-  double area = 0, Pint = 0, Px[3] = {0, 0, 0};
+  double area = 0, Pint = 0, Px[3] = {0, 0, 0}, S2[9] = {0};
   const double *x0 = P.x[0];
   double p0 = dot3(gA, x0) + cA;
   for (int i = 1; i + 1 < P.n; ++i) {
@@ -169,8 +178,26 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
     Pint += A * (p0 + p1 + p2) / 3.0;
     for (int k = 0; k < 3; ++k)
       Px[k] += A / 12.0 * ((p0 + p1 + p2) * (x0[k] + x1[k] + x2[k]) + p0 * x0[k] + p1 * x1[k] + p2 * x2[k]);
+    /* the integral of p x x^T over the triangle: sum over vertex triples (a, b, c) of p_c x_a x_b^T times
+     * the integral of l_a l_b l_c (barycentric): A/10 all equal, A/30 two equal, A/60 all different */
+    const double *xv[3] = {x0, x1, x2};
+    double pv[3] = {p0, p1, p2};
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b)
+        for (int c = 0; c < 3; ++c) {
+          double wgt = (a == b && b == c) ? A / 10.0 : (a == b || b == c || a == c) ? A / 30.0 : A / 60.0;
+          for (int k = 0; k < 3; ++k)
+            for (int l = 0; l < 3; ++l) S2[3 * k + l] += wgt * pv[c] * xv[a][k] * xv[b][l];
+        }
   }
   if (!(area > 0)) return;
+  if (kept->n < 40) {
+    piece *pc = &kept->at[kept->n++];
+    memcpy(pc->m, m, sizeof(double[3]));
+    pc->P = Pint;
+    memcpy(pc->Px, Px, sizeof(double[3]));
+    memcpy(pc->S2, S2, sizeof(double[9]));
+  }
   for (int k = 0; k < 3; ++k) {
     out->force[k] += Pint * m[k];
     out->first_moment[k] += Px[k];
@@ -235,6 +262,8 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
   }
   for (int a = 0; a < 3; ++a)
     if (loA[a] > hiA[a] || loB[a] > hiB[a]) return; /* apart */
+  pieces kept;
+  kept.n = 0;
   double minA = py_min(hA[0], py_min(hA[1], hA[2])), minB = py_min(hB[0], py_min(hB[1], hB[2]));
   double ext = 4.0 * (hA[0] + hA[1] + hA[2] + hB[0] + hB[1] + hB[2]) + 2.0 * sqrt(dot3(p, p));
   for (int g = 0; g < 6; ++g) {
@@ -263,7 +292,7 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
       double sA = (f % 2) ? -1.0 : 1.0, kA = E_A / minA;
       double gA[3] = {0, 0, 0};
       gA[axA] = -sA * kA;
-      cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out);
+      cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out, &kept);
     }
   }
   if (!(out->pressure_integral > 0)) {
@@ -276,17 +305,33 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
   for (int k = 0; k < 3; ++k) Jn[k] = dot3(out->dforce_ddepth + 3 * k, n);
   out->stiffness = dot3(Jn, n);
   for (int k = 0; k < 3; ++k) out->cop[k] = out->first_moment[k] / out->pressure_integral;
+  /* the damping inertia about the centre of pressure c: per piece M (S2 - Px c^T - c Px^T + P c c^T) M^T,
+   * M = [m]x (so that M r = m x r; (r x m)(r x m)^T = M r r^T M^T) */
+  const double *c = out->cop;
+  for (int q = 0; q < kept.n; ++q) {
+    const piece *pc = &kept.at[q];
+    double C[9], M[9] = {0, -pc->m[2], pc->m[1], pc->m[2], 0, -pc->m[0], -pc->m[1], pc->m[0], 0}, MC[9];
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l)
+        C[3 * k + l] = pc->S2[3 * k + l] - pc->Px[k] * c[l] - c[k] * pc->Px[l] + pc->P * c[k] * c[l];
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) MC[3 * k + l] = M[3 * k] * C[l] + M[3 * k + 1] * C[3 + l] + M[3 * k + 2] * C[6 + l];
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l)
+        out->damping_inertia[3 * k + l] += MC[3 * k] * M[3 * l] + MC[3 * k + 1] * M[3 * l + 1] + MC[3 * k + 2] * M[3 * l + 2];
+  }
 }
 
 /* The force law's elastic part: the exact field contact at the modulus the pair's kappa stands for
  * (two equal fields in series: kappa = E / (min h_A + min h_B)); *F = |force| [N], *area [m^2],
  * *k_n = dF/dd [N/m] (never below 0). */
 void ccs_field_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, double *F,
-                     double *area, double *k_n) {
+                     double *area, double *k_n, double *J) {
   double E = kappa * (py_min(hA[0], py_min(hA[1], hA[2])) + py_min(hB[0], py_min(hB[1], hB[2])));
   cc_field_contact c;
   cc_static_contact(p, R, hA, hB, E, E, &c);
   *F = sqrt(dot3(c.force, c.force));
   *area = c.area;
   *k_n = c.stiffness > 0 ? c.stiffness : 0.0;
+  memcpy(J, c.damping_inertia, sizeof(double[9]));
 }

@@ -37,6 +37,7 @@ struct cc_step {
   /* per-body workspace */
   double *p, *R; /* the poses of the latest cc_step_candidates */
   double *lo, *hi, *inv_m, *invI, *acc, *dacc, *history_next;
+  double *n_touch; /* (m) the touching pairs each body is in (the damping torque's share) */
   double *box;      /* (m, 6) the world boxes (lo, hi) in the sweep's order */
   uint8_t *box_free; /* (m) free flags in the sweep's order */
   size_t *order, *order_tmp;
@@ -50,6 +51,7 @@ struct cc_step {
   int64_t *ia, *ib;
   double *p_AB, *R_AB, *size_A, *size_B, *point_A, *normal_A, *fn, *f_W, *p_W, *n_W, *area;
   double *kap, *held, *anchors_next, *stuck_next, *F_el, *g, *W_rr, *vn0, *an_ext, *rA, *rB, *cA, *cB, *f;
+  double *Jd; /* (cap, 9) the exact field contact's damping inertia, A's frame (grid 0) */
   uint8_t *touch;
   /* sleeping (cc_step_set_sleep) */
   cc_step_sleep sleep;
@@ -86,7 +88,7 @@ void ccs_elastic_stiff(const double *p, const double *R, const double *hA, const
 
 /* step_field.c */
 void ccs_field_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, double *F,
-                     double *area, double *k_n);
+                     double *area, double *k_n, double *J);
 
 /* step_law.c */
 void ccs_gather_pairs(cc_step *s);

@@ -251,12 +251,32 @@ def _declared(data: dict) -> list:
                  "judged on the poses and scenes of its sizes):"), Bullets(tuple(rows))] if rows else []
 
 
+def _force(data: dict) -> list[Section]:
+    """The force section (testbed/bench/force.py), when the bench measured it."""
+    section = data.get("force")
+    if not section:
+        return []
+    rows = [(name, s["n"], _n(s["exact"]["force_rel_median"], fmt=".2g"), _n(s["exact"]["force_rel_p95"], fmt=".2g"),
+             _n(s["exact"]["direction_p95_deg"], fmt=".2g"), s["exact"]["zero_answers"],
+             _n(s["exact"]["stiffness_rel_median"], fmt=".2g"), _n(s["exact"]["stiffness_rel_p95"], fmt=".2g"),
+             _n(s["foundation"]["force_rel_median"]), _n(s["foundation"]["force_rel_p95"]), s["foundation"]["zero_answers"])
+            for name, s in section["sets"].items()]
+    return [Section(f"The contact force the loop applies, against Drake's static force ({section['law']}, "
+                    f"{section['modulus_Pa']:.0e} Pa)", [
+        Text("A predictor answers a point and a normal; the testbed's law supplies the force that moves the containers, "
+             "the same for every predictor judged here. Truth: Drake's static hydroelastic force at each pose (exact for its "
+             "piecewise-linear field), its stiffness the central difference of that force (+-1 um). Beside it, the former "
+             "Winkler foundation on the face overlap (grid 4) on the same poses."),
+        table(["set", "poses", "force error median", "p95", "direction p95 [deg]", "0 N where the truth > 1 % of 10 t",
+               "stiffness error median", "p95", "foundation: force error median", "p95", "0 N"], rows)], order=2)]
+
+
 def sections(data: dict) -> list[Section]:
     good = all(data["predictors"][s]["good_enough"] for s in (data.get("judged") or data["leaderboard"]))
     head = Section(None, [Verdict(good, " | ".join(verdict_lines(data))), *_declared(data),
                           *([Text(provenance_line(data["provenance"]))] if "provenance" in data else [])], order=0)
     budget = [budget_section(data["yard_budget"], order=3)] if data.get("yard_budget") else []  # after the cost
-    return [head, _leaderboard(data), _accuracy(data), _cost(data), *budget, _scenes(data)]
+    return [head, _leaderboard(data), _accuracy(data), *_force(data), _cost(data), *budget, _scenes(data)]
 
 
 def write_bench(out_dir: Path, data: dict) -> Path:

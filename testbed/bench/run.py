@@ -28,6 +28,7 @@ from learned_contact.data.sampling import DEFAULT_TYPES
 from learned_contact.sources import SHIPPED_NAMES
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
+from testbed.bench.force import force_section
 from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import (
@@ -175,6 +176,8 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
         chosen[m.spec] = (choose(m, open_list, open_pool, least_open), choose(m, closed_list, closed_pool, least_closed))
         entries[m.spec] = {"label": m.label, "kind": m.kind, "name": m.name, "sizes": sizes_entry(m, *chosen[m.spec]),
                            "accuracy": accuracy(m, sets.get(m.types, {}), seed)}
+    say("force: the law's against Drake's on the shipped types' pose sets")
+    force = force_section(sets[tuple(DEFAULT_TYPES)])
     say("cost per query (side by side, one process)")
     costs = cost_table(models, sets[tuple(DEFAULT_TYPES)], repeats=2 if quick else 3)
     for m in models:
@@ -189,7 +192,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
         entries[s]["known_limits"] = known_limits(entries[s])
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
-           "references": costs["references"], "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
+           "references": costs["references"], "force": force, "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
            "provenance": provenance(), "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
         write_bench(Path(out_dir), out)

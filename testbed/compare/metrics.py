@@ -107,6 +107,7 @@ def compare_figures(truth, learned, containers, predictor) -> dict:
         "max_container_penetration_m": float(depth.max()),
         "max_ground_penetration_m": float(ground.max()),
         "max_container_penetration_truth_m": float(depth_truth.max()),
+        "max_penetration_truth_m": float(max(depth_truth.max(), ground_truth.max())),
         "energy_gain_max_J": float(np.nanmax(gain)),
         "energy_gain_max_truth_J": float(np.max(truth.energy - truth.energy[0])),
         "potential_drop_max_J": float(np.max(truth.potential[0] - truth.potential)),

@@ -48,6 +48,10 @@ from testbed.geometry.rotations import angle_between_quaternions_deg
 FINAL_POSITION_TOL_M = 0.02  # final position of every container within 2 cm of the truth's
 FINAL_ANGLE_TOL_DEG = 0.5  # final orientation within 0.5 deg of the truth's
 MAX_PENETRATION_M = 0.020  # deepest container-container (SAT) or container-quay penetration
+# Where the truth itself penetrates deeper than MAX_PENETRATION_M (an edge- or corner-first landing: a
+# compliant box's pressure is 0 at its surface, so a corner sinks until it is deep), the bound is
+# re-derived from the truth's own figure: TRUTH_PENETRATION_FACTOR x it, and the gate says so.
+TRUTH_PENETRATION_FACTOR = 1.25
 # Known limits, pinned like the stress suite's expected failures: the gate holds while the
 # figure stays in the band around the pinned one (worse, or much better, fails).
 # scene -> (why, {gate: (pinned figure, (low, high) band factors)}).
@@ -61,8 +65,7 @@ KNOWN_LIMITS = {
         "rotational stiffness, the two tip the load differently off the knife edge (final angle 14.7 deg apart, "
         "5.3 before); the continuous truth cannot judge it yet (the crane effect's output is an algebraic loop on a "
         "continuous plant)",
-        {"final position": (1.008, (0.5, 2.0)), "final angle": (14.66, (0.5, 2.0)),
-         "max penetration": (0.0457, (0.8, 1.25))}),
+        {"final position": (1.008, (0.5, 2.0)), "final angle": (14.66, (0.5, 2.0))}),
     "stack_slide_off": (
         "the empty box tips off the loaded one's end edge at 8 m/s (1.1-1.5 s): a knife-edge contact whose "
         "answer depends on the truth's mesh (testbed study truth: the discrete plant's tip differs from the "
@@ -147,10 +150,11 @@ FULL_EXTRA_WHY = {
 # closed-loop set runs, each with the reason (tests/closed_loop/test_closed_loop_set.py holds
 # every [cc] scene to DEFAULT_SCENES, FULL_EXTRA or this).
 EXCLUDED: dict[str, str] = {
-    "corner_drop": "not judged yet: the learned loop lands the corner-first drop 108 mm from the discrete truth with "
-                   "the shipped foundation law and 229 mm with the exact field force (grid 0), Drake point contact 60 mm, "
-                   "the truth ladder's own spread 29 mm (discrete against continuous); the rebound and the rocking "
-                   "after it differ (dissipation), which the force alone does not decide (CHANGELOG 0.9.0)",
+    "corner_drop": "not judged yet: the learned loop lands the corner-first drop 45.7 mm from the discrete truth (the "
+                   "exact field force with Hunt-Crossley's torque over the surface; 108 mm with the former foundation), "
+                   "Drake point contact 38 mm, the truth ladder's own spread 34 mm (discrete against continuous; against "
+                   "the continuous truth the loop ends 25 mm away): outside the 20 mm bound, inside the truth's own "
+                   "uncertainty (tests/closed_loop/test_corner_drop.py)",
 }
 SMOKE_DURATION_S = 0.3  # two_stack only: shows the section, costs ~2 s
 
@@ -158,7 +162,7 @@ SMOKE_DURATION_S = 0.3  # two_stack only: shows the section, costs ~2 s
 KEYS = ("diverged", "departed", "position_error_max_m", "final_position_error_max_m", "final_angle_error_max_deg",
         "angle_error_max_deg", "max_penetration_m", "max_container_penetration_m", "max_ground_penetration_m",
         "energy_gain_max_J", "energy_gain_max_truth_J", "potential_drop_max_J", "drift_m_per_min_learned",
-        "drift_m_per_min_truth", "simulated_s_learned", "learned_error", "worst_container", "worst_time_s",
+        "max_penetration_truth_m", "drift_m_per_min_truth", "simulated_s_learned", "learned_error", "worst_container", "worst_time_s",
         "wall_per_sim_s_truth", "wall_per_sim_s_learned", "wall_per_sim_s_point", "speedup_vs_truth",
         "speedup_vs_point", "stability_max", "predictor_kind", "cost_learned")
 
@@ -234,8 +238,7 @@ def judge(result: dict, f: dict, name: str) -> list[Gate]:
         Gate(f"{name}final angle", at_most(f["final_angle_error_max_deg"], FINAL_ANGLE_TOL_DEG),
              f["final_angle_error_max_deg"], FINAL_ANGLE_TOL_DEG, "deg",
              "largest rotation between a container's final orientation and the ground truth's"),
-        Gate(f"{name}max penetration", at_most(f["max_penetration_m"], MAX_PENETRATION_M), f["max_penetration_m"],
-             MAX_PENETRATION_M, "m", "deepest container-container (separating-axis) or container-quay penetration"),
+        _penetration(name, f),
         Gate(f"{name}energy", at_most(f["energy_gain_gated_J"], result["energy_limit_J"]), f["energy_gain_gated_J"],
              result["energy_limit_J"], "J",
              ("max over time of the energy the closed loop's contact created, C(t) = E(t) - E(0) - W(t) (W: the "
@@ -259,6 +262,19 @@ def judge(result: dict, f: dict, name: str) -> list[Gate]:
                           f["drift_m_per_min_learned"], DRIFT_TOL_M_PER_MIN, "m/min",
                           "steepest fitted drift of a container over the second half of the run, per simulated minute"))
     return gates
+
+
+def _penetration(name: str, f: dict) -> Gate:
+    """The deepest penetration within MAX_PENETRATION_M, or within TRUTH_PENETRATION_FACTOR x the truth's
+    own where that is deeper (the bound re-derived from the truth, as the description says)."""
+    truth = f.get("max_penetration_truth_m")
+    bound, why = MAX_PENETRATION_M, ""
+    if truth is not None and math.isfinite(truth) and TRUTH_PENETRATION_FACTOR * truth > MAX_PENETRATION_M:
+        bound = TRUTH_PENETRATION_FACTOR * truth
+        why = (f"; the bound re-derived from the truth's own {truth * 1e3:.3g} mm ({TRUTH_PENETRATION_FACTOR:g}x it), "
+               f"deeper than {MAX_PENETRATION_M * 1e3:g} mm")
+    return Gate(f"{name}max penetration", at_most(f["max_penetration_m"], bound), f["max_penetration_m"], bound, "m",
+                "deepest container-container (separating-axis) or container-quay penetration" + why)
 
 
 def _outcome(name: str, f: dict) -> Gate:

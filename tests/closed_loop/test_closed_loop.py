@@ -219,14 +219,14 @@ def test_drop_lands_like_drake_and_creates_no_energy(mass):
     assert np.max(learned.energy - learned.energy[0]) <= 1e-6 * abs(learned.potential[0])
     # it settles at Drake's height: 0.1 mm (the compression under 10 t is 0.16 mm)
     assert np.abs(learned.p_WB[-1, :, 2] - truth.p_WB[-1, :, 2]).max() < 1e-4
-    # the tilted impact kicks the top box sideways and the friction laws differ during the
-    # impact (Drake's 'similar' approximation, the shipped default, against our explicit stick).
-    # Measured at the twins' 1e8 Pa: Drake slides 29 mm (10 t) / 27.5 mm (2.2 t), ours 51 / 52 mm;
-    # the end points 22.1 / 25.2 mm apart. (Against SAP, Drake slid 52 / 29 mm, and 10 t ended
-    # 8.9 mm from it.) A known gap for both masses, pinned in a band around the measured figure:
-    # more than 3 cm is worse, less than 1.5 cm means the pin is stale.
+    # the tilted impact kicks the top box sideways. Measured at the twins' 1e8 Pa: Drake slides 29 mm
+    # (10 t) / 27.5 mm (2.2 t); the law's end points lie 1.0 / 4.3 mm from Drake's since its force is
+    # the exact field contact and Hunt-Crossley's damping acts over the whole surface (its torque from
+    # the pressure spread, grid 0); with the Winkler foundation damped at the point only (grid 4) they
+    # were 20.9 / 27.7 mm apart, the rocking after the impact undamped. Bound: half the closed-loop
+    # gates' 2 cm, so that the foundation's figure fails it.
     apart = np.linalg.norm(learned.p_WB[-1, :, :2] - truth.p_WB[-1, :, :2], axis=1).max()
-    assert 1.5e-2 < apart < 3e-2
+    assert apart < 1e-2
 
 
 def test_runs_with_crane_meshcat_and_contact_log():

@@ -175,7 +175,7 @@ def _judged(tmp_path, **figures):
              learned_energy=np.zeros(11), truth_energy=np.zeros(11), learned_q_WB=still, truth_q_WB=still)
     base = {"scene": "crane_edge_landing", "duration_s": 5.0, "time_step_s": 1e-3, "potential_drop_max_J": 1e6,
             "diverged": False, "pair_steps_learned": 1000, "final_angle_error_max_deg": 14.66,
-            "max_penetration_m": 0.0457, "final_position_error_max_m": 1.0}
+            "max_penetration_m": 0.0457, "max_penetration_truth_m": 0.0395, "final_position_error_max_m": 1.0}
     return judge({**base, **figures}, tmp_path)
 
 
@@ -184,10 +184,26 @@ def test_known_limits_are_validates_pins(tmp_path):
     the band passes (and is listed as a known limit), one far better than the pin fails."""
     pins = closed_loop.KNOWN_LIMITS["crane_edge_landing"][1]
     held = _judged(tmp_path, final_position_error_max_m=pins["final position"][0])
-    assert held["verdict"] == "PASS" and len(held["gates_known_limits"]) == 3
+    assert held["verdict"] == "PASS" and len(held["gates_known_limits"]) == 2
     band = next(g for g in held["gates"] if g["name"] == "final position (known limit)")["threshold"]
     low, high = pins["final position"][1]
     assert band == [low * pins["final position"][0], high * pins["final position"][0]]
     moved = _judged(tmp_path, final_position_error_max_m=0.01)  # inside the 2 cm bound, outside the band
     assert moved["verdict"] == "FAIL" and moved["gates_failed"] == ["final position (known limit)"]
     assert moved["exit_status"] == 3
+
+
+def test_the_penetration_bound_is_rederived_where_the_truth_is_deeper(tmp_path):
+    """Where the truth itself penetrates deeper than the 20 mm bound (an edge- or corner-first landing),
+    the gate's bound is TRUTH_PENETRATION_FACTOR x the truth's own figure and says so; elsewhere 20 mm."""
+    factor = closed_loop.TRUTH_PENETRATION_FACTOR
+
+    def gate(**f):
+        judged = _judged(tmp_path, **f)
+        return next(g for g in judged["gates"] if g["name"].startswith("max penetration"))
+
+    deep = gate(max_penetration_m=0.045, max_penetration_truth_m=0.0395)
+    assert deep["passed"] and deep["threshold"] == pytest.approx(factor * 0.0395) and "re-derived" in deep["description"]
+    assert not gate(max_penetration_m=0.06, max_penetration_truth_m=0.0395)["passed"]  # beyond 1.25x the truth's
+    shallow = gate(max_penetration_m=0.025, max_penetration_truth_m=0.004)
+    assert not shallow["passed"] and shallow["threshold"] == closed_loop.MAX_PENETRATION_M

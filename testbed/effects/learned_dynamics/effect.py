@@ -72,14 +72,11 @@ class LearnedDynamicsConfig:
     slip_speed: float = 1e-4  # [m/s] Coulomb regularisation speed (regularised law, torsion)
     stiction: float = 0.5  # [-] cap of h c / m_red of the viscous friction (stable below 1)
     torsional_friction: bool = True
-    # the elastic force: N >= 1 = the Winkler foundation on the face overlap with N midpoints (right only
-    # where faces lie level and aligned: a corner gets 0 N); 0 = the exact field contact at any pose
-    # (static.py, native/src/step_field.c: Drake's force to 1e-9). The default stays the foundation
-    # until the loop is judged with the exact one: on a corner-first drop it did not land closer (229 mm
-    # from the truth against 182; the rebound and rocking differ) and at an aligned stack of one width the
-    # exact field's rim pieces jump by 4e-5 of the force between poses 1e-9 rad apart (the model's own
-    # degeneracy, Drake's too), which keeps a resting stack vibrating at 1.7e-6 m/s (CHANGELOG 0.9.0).
-    grid: int = 4
+    # the elastic force: 0 = the exact field contact at any pose (static.py, native/src/step_field.c:
+    # Drake's force to 1e-9, its stiffness in closed form) with Hunt-Crossley's torque from the pressure
+    # spread over the surface; N >= 1 = the Winkler foundation on the face overlap with N midpoints
+    # (right only where faces lie level and aligned: a corner gets 0 N), its damping at the point only
+    grid: int = 0
     normal_sweeps: int = 4  # projected Gauss-Seidel sweeps of the linearly implicit normal force per step
     shadow_truth: bool = True  # with contact_log: Drake's static answer at the same pose
     truth_every_steps: int = 20  # the shadow truth on steps 0, N, 2N, ... (1 = every step)
