@@ -28,12 +28,13 @@ typedef struct {
   int n;
 } polygon;
 
-/* Clips *P by a . x <= b (half-space index id); returns the new vertex count. */
 static double dot3(const double *a, const double *b);
 
-static int clip(polygon *P, const double a[3], double b, int id, const double m[3]) {
-  polygon out;
-  out.n = 0;
+/* Clips *P by a . x <= b (half-space index id) into *out; returns out's vertex count, or -1 when *P is
+ * kept whole (out untouched: no copy). */
+static int clip(const polygon *P, polygon *out, const double a[3], double b, int id) {
+  out->n = 0;
+  double sl[MAXV]; /* each vertex's slack, once */
   /* A half-space whose slack is the same over the whole polygon but for round-off (its plane parallel
    * to the polygon's) keeps all of it or none: round-off must not decide a cut. A polygon lying ON the
    * plane (slack zero within round-off) is kept for B's half-spaces and dropped for A's: two aligned
@@ -43,48 +44,47 @@ static int clip(polygon *P, const double a[3], double b, int id, const double m[
    * below, which finds where along the rim one piece gives way to the other. */
   double least = INFINITY, most = -INFINITY, size = fabs(b);
   for (int i = 0; i < P->n; ++i) {
-    double si = dot3(a, P->x[i]) - b;
-    least = py_min(least, si);
-    most = py_max(most, si);
-    size = py_max(size, fabs(a[0] * P->x[i][0]) + fabs(a[1] * P->x[i][1]) + fabs(a[2] * P->x[i][2]));
+    const double *x = P->x[i];
+    sl[i] = a[0] * x[0] + a[1] * x[1] + a[2] * x[2] - b;
+    least = py_min(least, sl[i]);
+    most = py_max(most, sl[i]);
+    size = py_max(size, fabs(a[0] * x[0]) + fabs(a[1] * x[1]) + fabs(a[2] * x[2]));
   }
+  if (most <= 0 && most - least > 0) return -1; /* wholly inside, not a round-off case: nothing to cut */
   /* the slacks' round-off, and no less than 0.1 nm: a plane within 1e-8 rad of a rim piece's (tilts a
    * resting stack sits at) is taken as that piece's own; the exact cut there moved the force by 4e-5
    * between poses 1e-14 rad apart, the piece's share at most O(tilt) */
   double tol = py_max(64 * 2.220446049250313e-16 * (1.0 + size), 1e-10 * sqrt(dot3(a, a)));
   if (most - least <= tol) {
     int on_plane = most <= tol && least >= -tol;
-    if (on_plane ? id < 6 : least > 0) P->n = 0;
-    return P->n;
+    return (on_plane ? id < 6 : least > 0) ? 0 : -1;
   }
-  (void)m;
+  if (least > 0) return 0; /* wholly outside */
   for (int i = 0; i < P->n; ++i) {
     int j = (i + 1) % P->n;
     const double *xi = P->x[i], *xj = P->x[j];
-    double si = a[0] * xi[0] + a[1] * xi[1] + a[2] * xi[2] - b;
-    double sj = a[0] * xj[0] + a[1] * xj[1] + a[2] * xj[2] - b;
+    double si = sl[i], sj = sl[j];
     /* exact signs, no tolerance: an edge is cut only where its ends lie on opposite sides, so the cut
      * lies on it (t in [0, 1]); a tolerance here once let a plane nearly parallel to the polygon
      * (t from two round-off-sized slacks) put a vertex metres outside an earlier half-space */
     int in_i = si <= 0, in_j = sj <= 0;
     if (in_i) {
-      if (out.n >= MAXV) return P->n = 0;
-      memcpy(out.x[out.n], xi, sizeof(double[3]));
-      out.on[out.n] = P->on[i]; /* the edge leaving x_i keeps its plane until cut */
-      ++out.n;
+      if (out->n >= MAXV) return out->n = 0;
+      memcpy(out->x[out->n], xi, sizeof(double[3]));
+      out->on[out->n] = P->on[i]; /* the edge leaving x_i keeps its plane until cut */
+      ++out->n;
     }
     if (in_i != in_j) {
       double t = py_min(1.0, py_max(0.0, si / (si - sj)));
-      if (out.n >= MAXV) return P->n = 0;
-      for (int c = 0; c < 3; ++c) out.x[out.n][c] = xi[c] + t * (xj[c] - xi[c]);
+      if (out->n >= MAXV) return out->n = 0;
+      for (int c = 0; c < 3; ++c) out->x[out->n][c] = xi[c] + t * (xj[c] - xi[c]);
       /* entering (out -> in): the new vertex starts the rest of edge i (its plane);
        * leaving (in -> out): the new vertex starts the clip edge (plane id) */
-      out.on[out.n] = in_i ? id : P->on[i];
-      ++out.n;
+      out->on[out->n] = in_i ? id : P->on[i];
+      ++out->n;
     }
   }
-  *P = out;
-  return P->n;
+  return out->n;
 }
 
 /* Cell f of a box of half extents h: rows a . x <= b in its own frame (a[6][3], b[6]). */
@@ -139,8 +139,42 @@ typedef struct {
   int n;
 } pieces;
 
+/* Does the plane m . x = c miss the box [lo, hi] (all eight corners strictly on one side)? */
+static int plane_misses_box(const double m[3], double c, const double lo[3], const double hi[3]) {
+  double least = 0, most = 0; /* the extremes of m . x - c over the box */
+  for (int k = 0; k < 3; ++k) {
+    double a = m[k] * lo[k], b = m[k] * hi[k];
+    least += py_min(a, b);
+    most += py_max(a, b);
+  }
+  return least - c > 1e-12 || most - c < -1e-12;
+}
+
+/* The box of cell f of a box with half extents h, within [lo, hi] (its own frame): along f's axis a the
+ * cell lies where s x_a is between max(0, h_a - min of the other h) and h_a, and its part in [lo, hi]
+ * within D of face f, D the largest distance to the boundary anywhere in [lo, hi] (at most the least
+ * over the axes of h_k - min |x_k|: a thin overlap keeps each cell's part thin). 0 when empty. */
+static int cell_box(const double *h, int f, const double *lo, const double *hi, double *clo, double *chi) {
+  int a = f / 2;
+  double s = (f % 2) ? -1.0 : 1.0, other = INFINITY, D = INFINITY;
+  for (int b = 0; b < 3; ++b) {
+    if (b != a) other = py_min(other, h[b]);
+    double min_abs = (lo[b] <= 0 && hi[b] >= 0) ? 0.0 : py_min(fabs(lo[b]), fabs(hi[b]));
+    D = py_min(D, h[b] - min_abs);
+  }
+  double near = py_max(0.0, py_max(h[a] - other, h[a] - D - 1e-12));
+  for (int k = 0; k < 3; ++k) {
+    clo[k] = lo[k];
+    chi[k] = hi[k];
+  }
+  if (s > 0) clo[a] = py_max(clo[a], near);
+  else chi[a] = py_min(chi[a], -near);
+  return clo[a] <= chi[a];
+}
+
 static void cell_pair(const double aH[12][3], const double bH[12], const double gA[3], double cA, const double gB[3],
-                      double cB, double ext, cc_field_contact *out, pieces *kept) {
+                      double cB, double ext, cc_field_contact *out, pieces *kept, const double *boxA, const double *boxB,
+                      const double *p, const double *R) {
   double diff[3] = {gA[0] - gB[0], gA[1] - gB[1], gA[2] - gB[2]};
   double norm = sqrt(dot3(diff, diff));
   /* where the two fields (nearly) coincide (the end cells of two aligned boxes of one width, side by
@@ -151,11 +185,17 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
   if (!(norm > 1e-6 * (sqrt(dot3(gA, gA)) + sqrt(dot3(gB, gB))))) return;
   double m[3] = {-diff[0] / norm, -diff[1] / norm, -diff[2] / norm}; /* A into B */
   double c = (cA - cB) / norm;                                       /* m . x = c */
+  /* the plane must cross both cells' boxes within the overlap (A's in A's frame, B's in B's) */
+  if (plane_misses_box(m, c, boxA, boxA + 3)) return;
+  double mB[3] = {R[0] * m[0] + R[3] * m[1] + R[6] * m[2], R[1] * m[0] + R[4] * m[1] + R[7] * m[2],
+                  R[2] * m[0] + R[5] * m[1] + R[8] * m[2]};
+  if (plane_misses_box(mB, c - dot3(m, p), boxB, boxB + 3)) return;
   double t[3] = {fabs(m[0]) < 0.9 ? 1.0 : 0.0, fabs(m[0]) < 0.9 ? 0.0 : 1.0, 0.0}, e1[3], e2[3];
   cross3(m, t, e1);
   double l1 = sqrt(dot3(e1, e1));
   for (int k = 0; k < 3; ++k) e1[k] /= l1;
   cross3(m, e1, e2);
+  polygon buf[2], *cur = &buf[0], *nxt = &buf[1];
   polygon P;
   P.n = 4;
   static const double corner[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
@@ -163,8 +203,15 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
     for (int k = 0; k < 3; ++k) P.x[i][k] = c * m[k] + ext * (corner[i][0] * e1[k] + corner[i][1] * e2[k]);
     P.on[i] = -1;
   }
-  for (int r = 0; r < 12 && P.n >= 3; ++r) clip(&P, aH[r], bH[r], r, m);
-  if (P.n < 3) return;
+  *cur = P;
+  for (int r = 0; r < 12 && cur->n >= 3; ++r) {
+    if (clip(cur, nxt, aH[r], bH[r], r) < 0) continue;
+    polygon *t = cur;
+    cur = nxt;
+    nxt = t;
+  }
+  if (cur->n < 3) return;
+  P = *cur;
   double area = 0, Pint = 0, Px[3] = {0, 0, 0}, S2[9] = {0};
   const double *x0 = P.x[0];
   double p0 = dot3(gA, x0) + cA;
@@ -178,17 +225,22 @@ static void cell_pair(const double aH[12][3], const double bH[12], const double 
     Pint += A * (p0 + p1 + p2) / 3.0;
     for (int k = 0; k < 3; ++k)
       Px[k] += A / 12.0 * ((p0 + p1 + p2) * (x0[k] + x1[k] + x2[k]) + p0 * x0[k] + p1 * x1[k] + p2 * x2[k]);
-    /* the integral of p x x^T over the triangle: sum over vertex triples (a, b, c) of p_c x_a x_b^T times
-     * the integral of l_a l_b l_c (barycentric): A/10 all equal, A/30 two equal, A/60 all different */
+    /* the integral of p x x^T over the triangle: the sum over vertex triples (a, b, c) of p_c x_a x_b^T
+     * times the integral of l_a l_b l_c (barycentric: A/10 all equal, A/30 two equal, A/60 all
+     * different), i.e. A/60 [P (S S^T + sum x x^T) + S Q^T + Q S^T + 2 sum p x x^T] with P = sum p,
+     * S = sum x, Q = sum p x */
     const double *xv[3] = {x0, x1, x2};
-    double pv[3] = {p0, p1, p2};
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b)
-        for (int c = 0; c < 3; ++c) {
-          double wgt = (a == b && b == c) ? A / 10.0 : (a == b || b == c || a == c) ? A / 30.0 : A / 60.0;
-          for (int k = 0; k < 3; ++k)
-            for (int l = 0; l < 3; ++l) S2[3 * k + l] += wgt * pv[c] * xv[a][k] * xv[b][l];
-        }
+    double pv[3] = {p0, p1, p2}, Ps = p0 + p1 + p2, S[3], Q[3];
+    for (int k = 0; k < 3; ++k) {
+      S[k] = x0[k] + x1[k] + x2[k];
+      Q[k] = p0 * x0[k] + p1 * x1[k] + p2 * x2[k];
+    }
+    for (int k = 0; k < 3; ++k)
+      for (int l = 0; l < 3; ++l) {
+        double sum = Ps * S[k] * S[l] + S[k] * Q[l] + Q[k] * S[l];
+        for (int a = 0; a < 3; ++a) sum += (Ps + 2.0 * pv[a]) * xv[a][k] * xv[a][l];
+        S2[3 * k + l] += A / 60.0 * sum;
+      }
   }
   if (!(area > 0)) return;
   if (kept->n < 40) {
@@ -267,7 +319,8 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
   double minA = py_min(hA[0], py_min(hA[1], hA[2])), minB = py_min(hB[0], py_min(hB[1], hB[2]));
   double ext = 4.0 * (hA[0] + hA[1] + hA[2] + hB[0] + hB[1] + hB[2]) + 2.0 * sqrt(dot3(p, p));
   for (int g = 0; g < 6; ++g) {
-    if (!cell_may_meet(loB, hiB, hB, g)) continue;
+    double boxB[6];
+    if (!cell_may_meet(loB, hiB, hB, g) || !cell_box(hB, g, loB, hiB, boxB, boxB + 3)) continue;
     double aB[6][3], bB[6];
     cell(hB, g, aB, bB);
     int axB = g / 2;
@@ -281,7 +334,8 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
       bH[6 + r] = bB[r] + dot3(aH[6 + r], p);
     }
     for (int f = 0; f < 6; ++f) {
-      if (!cell_may_meet(loA, hiA, hA, f)) continue;
+      double boxA[6];
+      if (!cell_may_meet(loA, hiA, hA, f) || !cell_box(hA, f, loA, hiA, boxA, boxA + 3)) continue;
       double aA[6][3], bA[6];
       cell(hA, f, aA, bA);
       for (int r = 0; r < 6; ++r) {
@@ -292,7 +346,7 @@ void cc_static_contact(const double p[3], const double R[9], const double hA[3],
       double sA = (f % 2) ? -1.0 : 1.0, kA = E_A / minA;
       double gA[3] = {0, 0, 0};
       gA[axA] = -sA * kA;
-      cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out, &kept);
+      cell_pair((const double(*)[3])aH, bH, gA, kA * hA[axA], gB, cB, ext, out, &kept, boxA, boxB, p, R);
     }
   }
   if (!(out->pressure_integral > 0)) {

@@ -4,6 +4,7 @@
  *   step_pairs.c    broad phase and the candidate pairs' poses
  *   step_elastic.c  the foundation integral: a pair's elastic force, area and stiffness (the old law)
  *   step_field.c    the exact field contact at any pose: the law's force, area and stiffness
+ *   step_damping.c  Hunt-Crossley's torque from the field contact's pressure spread
  *   step_law.c      the force law: normal and friction impulses, the pairs' wrenches
  *   step_sleep.c    sleeping islands and pair reuse (which candidates the predictor is asked)
  * Internal functions are prefixed ccs_. */
@@ -89,6 +90,10 @@ void ccs_elastic_stiff(const double *p, const double *R, const double *hA, const
 /* step_field.c */
 void ccs_field_stiff(const double *p, const double *R, const double *hA, const double *hB, double kappa, double *F,
                      double *area, double *k_n, double *J);
+
+/* step_damping.c: tau += pair r's Hunt-Crossley torque on B (backward Euler in its relative rate) */
+void ccs_damping_torque(const cc_step *s, size_t r, size_t i, size_t j, const double *wi, const double *wj, double d,
+                        double h, double *tau);
 
 /* step_law.c */
 void ccs_gather_pairs(cc_step *s);
