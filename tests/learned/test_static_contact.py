@@ -6,9 +6,11 @@ edge overhangs); its stiffness against a central difference of Drake's own force
 
 Measured 2026-12-07 (Drake 1.51.1, 1e8 Pa), the force's relative error against Drake's, median / p95
 (the former law, grid >= 1, beside it in brackets on the same poses):
-  stacking (new seed)  1.4e-13 / 2.1e-12   [issue's measurement: 15.6x Drake's]
-  general (new seed)   1.5e-13 / 2.1e-12   [6,300x]
-  corner landings      see test_families_against_drake (printed on failure); max 1e-9 bound
+  stacking (new seed)  9.7e-14 / 1.5e-12   [10.1x Drake's]
+  general (new seed)   4.0e-13 / 4.3e-12   [2,230x]
+  corner landings      1.9e-13 / 9.5e-13   [107x]
+  laid across          2.1e-13 / 2.1e-12   [23x]
+  edge overhangs       2.6e-13 / 3.4e-12   [1.15x]
 The truth's own error: Drake's force is the sum of p(centroid) x area x normal over its polygons,
 exact for its piecewise-linear field (docs/truth.md), so the bound 1e-9 is round-off, not model error.
 """
@@ -149,7 +151,7 @@ FAMILIES = {  # name: (type_a, type_b, sampler(rng) -> (rpy_deg, xy, pen[, corne
         g.uniform(1e-4, 0.01))),
     "the issue's poses": None,
 }
-ISSUE_POSES = [  # (rpy_deg, xy, pen): a 20 ft box on a 40 ft one (../reference table: the former law's 0 N, 57x, 18x)
+ISSUE_POSES = [  # (rpy_deg, xy, pen): a 20 ft box on a 40 ft one, where the former law gave 0 N, 57x and 18x Drake's
     ([3, 2, 0], [1.5, 0.1], 2e-3), ([3, 2, 0], [1.5, 0.1], 10e-3), ([1, 0.5, 0], [1.5, 0.1], 2e-3),
     ([2, 0, 10], [1.5, 0.1], 2e-3), ([2, 0, 10], [1.5, 0.1], 10e-3), ([0.5, 0.5, 45], [1.5, 0.1], 10e-3),
 ]
