@@ -44,6 +44,19 @@ def _figures(force, stiffness, truth, truth_k, rows) -> dict:
             "stiffness_rel_median": float(np.median(k_rel)), "stiffness_rel_p95": float(np.percentile(k_rel, 95))}
 
 
+def step_cost_rows(budget_s: float = 0.05) -> dict:
+    """{state: {"ratio", "exact_us", "foundation_us", "verdict"}}: the learned step's cost with the exact
+    force over the foundation's, side by side (testbed/bench/step_cost.py); {} without the native core."""
+    from testbed.bench import step_cost
+
+    try:
+        measured = step_cost.ratios(budget_s)
+    except ImportError:
+        return {}
+    return {name: {"ratio": r, "exact_us": a, "foundation_us": b, "verdict": step_cost.verdict(name, r)}
+            for name, (r, a, b) in measured.items()}
+
+
 def force_section(data: dict, modulus: float = KAPPA_MODULUS) -> dict:
     """{"law", "modulus_Pa", "sets": {set: {"n", "exact": figures, "foundation": figures}}} (module
     docstring) for the bench's pose sets `data` ({name: learned_contact Dataset with `force`})."""

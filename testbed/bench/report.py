@@ -268,7 +268,22 @@ def _force(data: dict) -> list[Section]:
              "piecewise-linear field), its stiffness the central difference of that force (+-1 um). Beside it, the former "
              "Winkler foundation on the face overlap (grid 4) on the same poses."),
         table(["set", "poses", "force error median", "p95", "direction p95 [deg]", "0 N where the truth > 1 % of 10 t",
-               "stiffness error median", "p95", "foundation: force error median", "p95", "0 N"], rows)], order=2)]
+               "stiffness error median", "p95", "foundation: force error median", "p95", "0 N"], rows),
+        *_step_cost(section.get("step_cost") or {})], order=2)]
+
+
+def _step_cost(rows: dict) -> list:
+    """What the exact force costs in the step, as ratios to the foundation's (testbed/bench/step_cost.py)."""
+    if not rows:
+        return []
+    from testbed.bench.step_cost import ISSUE_TARGET, WHY
+
+    return [Text(f"What it costs: the learned step (candidates, predictor, force law) with the exact force over the same step "
+                 f"with the foundation, timed side by side (CPU time); target at most {ISSUE_TARGET:g}x. Where it is not met: "
+                 f"{WHY}."),
+            table(["state", "exact / foundation", "exact [us per step]", "foundation [us per step]", "verdict"],
+                  [(name, f"{r['ratio']:.2f}x", f"{r['exact_us']:.1f}", f"{r['foundation_us']:.1f}", r["verdict"])
+                   for name, r in rows.items()])]
 
 
 def sections(data: dict) -> list[Section]:

@@ -28,7 +28,7 @@ from learned_contact.data.sampling import DEFAULT_TYPES
 from learned_contact.sources import SHIPPED_NAMES
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
-from testbed.bench.force import force_section
+from testbed.bench.force import force_section, step_cost_rows
 from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import (
@@ -178,6 +178,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
                            "accuracy": accuracy(m, sets.get(m.types, {}), seed)}
     say("force: the law's against Drake's on the shipped types' pose sets")
     force = force_section(sets[tuple(DEFAULT_TYPES)])
+    force["step_cost"] = step_cost_rows(budget_s=0.02 if quick else 0.05)
     say("cost per query (side by side, one process)")
     costs = cost_table(models, sets[tuple(DEFAULT_TYPES)], repeats=2 if quick else 3)
     for m in models:

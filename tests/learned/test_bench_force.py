@@ -32,3 +32,16 @@ def test_a_set_without_forces_is_left_out():
 
     assert force_section({"bare": dataclasses.replace(ds, force=None)})["sets"] == {}
     assert np.isfinite(force_section({"s": ds})["sets"]["s"]["exact"]["force_rel_median"])
+
+
+def test_the_section_shows_the_step_cost_with_its_verdicts():
+    from testbed.bench.force import step_cost_rows
+    from testbed.document import to_markdown
+
+    rows = step_cost_rows(budget_s=0.005)
+    assert set(rows) == {"yard block (72 resting pairs)", "nine mixed stack (8 pairs)", "slide on a box",
+                         "tilted drop, landed"}
+    assert all(r["exact_us"] > 0 and r["foundation_us"] > 0 and r["ratio"] > 0 for r in rows.values())
+    section = {"law": "x", "modulus_Pa": 1e8, "sets": {}, "step_cost": rows}
+    text = to_markdown("bench", _force({"force": section}))
+    assert "exact / foundation" in text and all(f"{r['ratio']:.2f}x" in text for r in rows.values())
