@@ -21,7 +21,7 @@ CONTAINER_SIZES = [[6.058, 2.438, 2.591], [12.192, 2.438, 2.591], [12.192, 2.438
 
 def centre_line_onnx(path, *, dtype="float32", static_batch=None, input_names=("p_AB", "R_AB", "size_A", "size_B"),
                      normal_scale=1.0, nan=False, depth=False, sizes=CONTAINER_SIZES, name="centre_line",
-                     metadata=None) -> Path:
+                     metadata=None, force=None) -> Path:
     """Writes the centre-line model (see the module docstring) to `path`; each keyword
     breaks or varies one thing. Returns the path."""
     import onnx
@@ -51,6 +51,20 @@ def centre_line_onnx(path, *, dtype="float32", static_batch=None, input_names=("
                   helper.make_node("Add", ["l0", "mm"], ["depth"])]
         inits.append(helper.make_tensor("mm", elem, [], [0.001]))
         outputs.append(helper.make_tensor_value_info("depth", elem, [n]))
+    if force:  # the model's own force: a constant 1 kN, 1e6 N/m (and 2 m^2 with "area"); "no_stiffness" breaks it
+        nodes += [helper.make_node("ReduceSum", ["length", "axes"], ["f1"], keepdims=0),
+                  helper.make_node("Mul", ["f1", "zero"], ["f0"]),
+                  helper.make_node("Add", ["f0", "kN"], ["force_n"])]
+        inits.append(helper.make_tensor("kN", elem, [], [1000.0]))
+        outputs.append(helper.make_tensor_value_info("force_n", elem, [n]))
+        if force != "no_stiffness":
+            nodes.append(helper.make_node("Add", ["f0", "k"], ["stiffness"]))
+            inits.append(helper.make_tensor("k", elem, [], [1.0e6]))
+            outputs.append(helper.make_tensor_value_info("stiffness", elem, [n]))
+        if force == "area":
+            nodes.append(helper.make_node("Add", ["f0", "two"], ["area"]))
+            inits.append(helper.make_tensor("two", elem, [], [2.0]))
+            outputs.append(helper.make_tensor_value_info("area", elem, [n]))
     graph = helper.make_graph(nodes, "centre_line", inputs, outputs, initializer=inits)
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 18)])
     model.ir_version = 9
@@ -135,3 +149,36 @@ class ShiftedModel:
 def not_a_model():
     """A factory that returns something without predict()."""
     return 42
+
+
+class ExactForce:
+    """The shipped predictor with its own force: the testbed's exact field force (static_answer)
+    times FACTOR, its stiffness likewise (a model that supplies a force, biased or not)."""
+
+    FACTOR = 1.0
+
+    def __init__(self):
+        from learned_contact.sources import load_predictor
+
+        self._inner = load_predictor("improved")
+        self.supported_sizes = self._inner.supported_sizes
+        self.name = f"exact_force_x{self.FACTOR:g}"
+
+    def predict(self, p_AB, R_AB, *, size_A, size_B):
+        return self._inner.predict(p_AB, R_AB, size_A=size_A, size_B=size_B)
+
+    def force(self, p_AB, R_AB, *, size_A, size_B):
+        from testbed.effects.learned_dynamics.static import static_answer
+
+        a = static_answer(p_AB, R_AB, size_A, size_B, modulus=1e8)
+        return self.FACTOR * np.linalg.norm(a.force, axis=1), self.FACTOR * np.maximum(a.stiffness, 0.0), a.area
+
+
+class DoubleForce(ExactForce):
+    FACTOR = 2.0
+
+
+class NaNForce(ExactForce):
+    def force(self, p_AB, R_AB, *, size_A, size_B):
+        f, k, a = super().force(p_AB, R_AB, size_A=size_A, size_B=size_B)
+        return f * np.nan, k, a

@@ -14,7 +14,11 @@ the effects, the gates and the closed loop treat every model alike:
   depth of the two boxes (testbed.geometry.boxes.sat_normal), the same figure the shipped
   predictors report;
 - poses outside DOMAIN_DEPTH: outside="clip" clamps the point into A's box grown by
-  CLIP_MARGIN (as the shipped predictors do), outside="raise" refuses them.
+  CLIP_MARGIN (as the shipped predictors do), outside="raise" refuses them;
+- force (optional): a model may answer its own elastic contact force (`contact_force`: the
+  normal force magnitude along its normal, its normal stiffness and the contact area, at
+  FORCE_MODULUS); the bench judges it against Drake's and the closed loop applies it in place
+  of the testbed's exact field force. Without one, the testbed's force drives it.
 
 Frames and units as learned_contact.interface: p_AB (n, 3) [m] B's centre in A, R_AB
 (n, 3, 3) B's orientation in A, size_A/size_B full extents [m]; point_A (n, 3) [m] in
@@ -105,6 +109,24 @@ def check_answers(source: str, point, normal, depth, n: int):
     return point, normal / length[:, None], depth
 
 
+FORCE_MODULUS = 1.0e8  # [Pa] the modulus a model's own force is stated at (the law's; linear in it)
+
+
+def check_force(source: str, force_n, stiffness, area, n: int) -> np.ndarray:
+    """(n, 3) rows (F [N], dF/dd [N/m], area [m^2]) of a model's force answer, or
+    PredictorOutputError naming what is wrong (shapes (n,), finite, F, dF/dd and area >= 0)."""
+    rows = np.zeros((n, 3))
+    for col, (name, value) in enumerate((("force_n", force_n), ("stiffness", stiffness), ("area", area))):
+        if value is None and name == "area":
+            continue
+        v = np.asarray(value, dtype=float).reshape(-1)
+        if v.shape != (n,) or not np.all(np.isfinite(v)) or np.any(v < 0):
+            raise PredictorOutputError(f"{source}: output {name} has shape {np.shape(value)} for {n} poses or values "
+                                       f"not finite and >= 0; expected ({n},) finite values >= 0")
+        rows[:, col] = v
+    return rows
+
+
 class ExternalPredictor:
     """A model the testbed did not ship, behind learned_contact.interface.Predictor.
 
@@ -122,8 +144,9 @@ class ExternalPredictor:
 
     def __init__(self, *, kind: str, name: str, answer: AnswerFn, supported_sizes, source: str,
                  depth_fn: Optional[AnswerFn] = None, own_call: Optional[OwnCallFn] = None,
-                 own_round: Optional[OwnRoundFn] = None):
+                 own_round: Optional[OwnRoundFn] = None, force_fn: Optional[AnswerFn] = None):
         self.kind, self.source = kind, source
+        self._force_fn = force_fn  # (p, R, sA, sB) -> (force_n, stiffness, area or None)
         self.name = "".join(ch if ch.isprintable() else "_" for ch in str(name))[:80]  # shown in tables and lines
         self._answer, self._depth_fn = answer, depth_fn
         self._own_call = own_call if own_call is not None else (lambda p, R, sA, sB: lambda: answer(p, R, sA, sB))
@@ -206,6 +229,21 @@ class ExternalPredictor:
         p, R, sA, sB, single = self._checked(p_AB, R_AB, size_A, size_B)
         depth = self._depth_of(p, R, sA, sB)
         return float(depth[0]) if single else depth
+
+    @property
+    def has_force(self) -> bool:
+        """Whether the model answers its own contact force (contact_force)."""
+        return self._force_fn is not None
+
+    def contact_force(self, p_AB, R_AB, *, size_A, size_B) -> np.ndarray:
+        """(n, 3) rows (F [N] the elastic normal force along the model's normal, 0 where apart; dF/dd
+        [N/m] its normal stiffness; area [m^2], 0 if the model gives none) at FORCE_MODULUS; a
+        PredictorOutputError for a model without one or a bad answer."""
+        if self._force_fn is None:
+            raise PredictorOutputError(f"{self.source}: the model answers no force (outputs force_n and stiffness)")
+        p, R, sA, sB, _ = self._checked(p_AB, R_AB, size_A, size_B)
+        force_n, stiffness, area = self._force_fn(p, R, sA, sB)
+        return check_force(self.source, force_n, stiffness, area, len(p))
 
     def in_domain(self, p_AB, R_AB, *, size_A, size_B):
         """(n,) bool (a bool for a single pose): depth within DOMAIN_DEPTH."""

@@ -36,7 +36,8 @@ from testbed.safe_files import check_regular_file
 
 INPUTS = {"p_AB": (3,), "R_AB": (3, 3), "size_A": (3,), "size_B": (3,)}  # name -> shape after the batch axis
 OUTPUTS = {"point_A": (3,), "normal_A": (3,)}
-OPTIONAL_OUTPUTS = {"depth": ()}
+OPTIONAL_OUTPUTS = {"depth": (), "force_n": (), "stiffness": (), "area": ()}
+FORCE_OUTPUTS = ("force_n", "stiffness")  # a model's own force: both or neither (external.contact_force)
 TYPES = {"tensor(float)": np.float32, "tensor(double)": np.float64}
 # A contact model of the paper's size is a few kB, the shipped improved one ~60 kB; 256 MB
 # admits any network a simulator would run per pair per step and refuses a runaway file.
@@ -187,11 +188,16 @@ def load_onnx(path) -> ExternalPredictor:
     missing = [n for n in OUTPUTS if n not in outputs]
     if missing:
         raise _fail(path, "outputs", f"are {sorted(outputs)} (missing {missing})",
-                    f"{list(OUTPUTS)} and optionally 'depth'")
+                    f"{list(OUTPUTS)} and optionally 'depth', 'force_n' with 'stiffness', 'area'")
+    given = [n for n in FORCE_OUTPUTS if n in outputs]
+    if len(given) == 1 or ("area" in outputs and not given):
+        raise _fail(path, "outputs", f"are {sorted(outputs)} (a force needs both {list(FORCE_OUTPUTS)}, area with them)",
+                    f"{list(FORCE_OUTPUTS)} together, or neither")
     dtypes = {n: _check_arg(path, "input", inputs[n], tail) for n, tail in INPUTS.items()}
     for n, tail in {**OUTPUTS, **{k: v for k, v in OPTIONAL_OUTPUTS.items() if k in outputs}}.items():
         _check_arg(path, "output", outputs[n], tail)
-    wanted = list(OUTPUTS) + [n for n in OPTIONAL_OUTPUTS if n in outputs]
+    wanted = list(OUTPUTS) + [n for n in ("depth",) if n in outputs]
+    force_wanted = [n for n in ("force_n", "stiffness", "area") if n in outputs]
     sizes, name = _metadata(path, session)
 
     import onnxruntime as ort
@@ -225,9 +231,25 @@ def load_onnx(path) -> ExternalPredictor:
                                        f"({first[:200]})") from None
         return result[0], result[1], (result[2] if len(result) > 2 else None)
 
+    def force(p, R, sA, sB):
+        feed = prepared(p, R, sA, sB)
+        run_options = ort.RunOptions()
+        run_options.log_severity_level = 4
+        try:
+            with limits.onnx_deadline(run_options, f"ONNX model {path}"):
+                result = session.run(force_wanted, feed, run_options)
+        except PredictorTimeoutError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a model that fails at run time
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise PredictorOutputError(f"ONNX model {path}: its force failed on a batch of {len(p)} poses "
+                                       f"({first[:200]})") from None
+        return result[0], result[1], (result[2] if len(result) > 2 else None)
+
     depth_fn = (lambda p, R, sA, sB: answer(p, R, sA, sB)[2]) if "depth" in outputs else None
     predictor = ExternalPredictor(kind="onnx", name=name, answer=answer, supported_sizes=sizes, source=str(path),
-                                  depth_fn=depth_fn, own_call=own_call, own_round=own_round)
+                                  depth_fn=depth_fn, own_call=own_call, own_round=own_round,
+                                  force_fn=force if force_wanted else None)
     probe(predictor)
     return predictor
 

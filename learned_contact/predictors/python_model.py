@@ -135,10 +135,20 @@ def _load_python(spec: str) -> ExternalPredictor:
 
     depth = getattr(target, "depth", None)
     depth_fn = (lambda p, R, sA, sB: _call(spec, depth, p, R, sA, sB)) if callable(depth) else None
+    own_force = getattr(target, "force", None)
+
+    def force(p, R, sA, sB):
+        out = _call(spec, own_force, p, R, sA, sB)
+        if not isinstance(out, (tuple, list)) or len(out) not in (2, 3):
+            raise WeightsError(f"Python model {spec}: force returned {type(out).__name__}; expected "
+                               "(force_n, stiffness) or (force_n, stiffness, area)")
+        return out[0], out[1], (out[2] if len(out) == 3 else None)
+
     name = str(getattr(target, "name", None) or spec.rpartition(":")[2])
     predictor = ExternalPredictor(kind="python", name=name, answer=answer, supported_sizes=sizes, source=spec,
                                   depth_fn=depth_fn,
                                   own_call=lambda p, R, sA, sB: lambda: target.predict(p, R, size_A=sA, size_B=sB),
-                                  own_round=lambda calls: _own_round(spec, calls))
+                                  own_round=lambda calls: _own_round(spec, calls),
+                                  force_fn=force if callable(own_force) else None)
     probe(predictor)
     return predictor

@@ -123,6 +123,15 @@ int cc_step_candidates(cc_step *step, const double *p_WB, const double *R_WB, si
 int cc_step_force_law(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
                       const double *normal_A, double *wrench_W);
 
+/* cc_step_force_law with the caller's own elastic answer per candidate pair instead of the law's
+ * (params.grid): elastic (k, 3) rows (F [N] the normal force magnitude along normal_A, 0 where
+ * apart; dF/dd [N/m] its normal stiffness, for the implicit step; area [m^2] the contact's, for the
+ * torsional friction's radius, 0 for none), at the modulus the scene runs at. The law's damping
+ * (Hunt-Crossley on F, at the point: no surface torque without the field's second moment) and
+ * friction act on it as on the law's own. Every value must be finite (else CC_BAD_ARGUMENT). */
+int cc_step_force_law_given(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
+                            const double *normal_A, const double *elastic, double *wrench_W);
+
 /* The latest step's candidate pairs (k of them, A = ia < B = ib), borrowed from the step:
  * valid until its next call. The force law's fields are zero until cc_step_force_law or
  * cc_contact_step has run on these pairs. */

@@ -180,10 +180,15 @@ done:
   return result;
 }
 
-/* step_force_law(step, w (m, 3), v (m, 3), point_A (k, 3), normal_A (k, 3), wrench (m, 6) out) */
+/* step_force_law(step, w (m, 3), v (m, 3), point_A (k, 3), normal_A (k, 3), wrench (m, 6) out[, elastic (k, 3)]):
+ * with elastic, the caller's own (F [N], dF/dd [N/m], area [m^2]) per pair (cc_step_force_law_given) */
 static PyObject *py_step_force_law(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
   (void)self;
-  ARGS(6, "step, w_WB, v_WB, point_A, normal_A, wrench_W");
+  if (nargs != 6 && nargs != 7) {
+    PyErr_Format(PyExc_TypeError, "step_force_law expects 6 or 7 arguments (step, w_WB, v_WB, point_A, normal_A, "
+                 "wrench_W[, elastic]), got %zd", nargs);
+    return NULL;
+  }
   cc_step *s = cc_py_step_of(args[0]);
   if (s == NULL) return NULL;
   Py_ssize_t m = n_bodies(s);
@@ -191,19 +196,23 @@ static PyObject *py_step_force_law(PyObject *self, PyObject *const *args, Py_ssi
   cc_step_view(s, &view);
   Py_ssize_t k = (Py_ssize_t)view.n;
   buffers b = {.n = 0};
-  void *w, *v, *pA, *nA, *out;
+  void *w, *v, *pA, *nA, *out, *given = NULL;
   PyObject *result = NULL;
   if (cc_py_take(&b, args[1], "w_WB", 'd', 3 * m, 0, 0, &w, NULL) == 0 &&
       cc_py_take(&b, args[2], "v_WB", 'd', 3 * m, 0, 0, &v, NULL) == 0 &&
       cc_py_take(&b, args[3], "point_A", 'd', 3 * k, 0, 0, &pA, NULL) == 0 &&
       cc_py_take(&b, args[4], "normal_A", 'd', 3 * k, 0, 0, &nA, NULL) == 0 &&
-      cc_py_take(&b, args[5], "wrench_W", 'd', 6 * m, 1, 0, &out, NULL) == 0) {
-    int status = cc_step_force_law(s, w, v, pA, nA, out);
+      cc_py_take(&b, args[5], "wrench_W", 'd', 6 * m, 1, 0, &out, NULL) == 0 &&
+      (nargs == 6 || cc_py_take(&b, args[6], "elastic", 'd', 3 * k, 0, 0, &given, NULL) == 0)) {
+    int status = nargs == 6 ? cc_step_force_law(s, w, v, pA, nA, out)
+                            : cc_step_force_law_given(s, w, v, pA, nA, given, out);
     if (status == CC_OK) {
       result = Py_None;
       Py_INCREF(result);
     } else {
-      cc_py_status_error(status, "step_force_law (run step_candidates first, once per law)");
+      cc_py_status_error(status, nargs == 6 ? "step_force_law (run step_candidates first, once per law)"
+                                            : "step_force_law (run step_candidates first, once per law; every "
+                                              "elastic value finite)");
     }
   }
   cc_py_release(&b);
@@ -388,7 +397,7 @@ PyMethodDef cc_py_step_methods[] = {
     FAST(step_forget, "step_forget(step): no pair held, no body history"),
     FAST(step_candidates, "step_candidates(step, p_WB, R_WB) -> k candidate pairs"),
     FAST(step_read, "step_read(step, ia, ib, p_AB, R_AB, size_A, size_B, point_A, normal_A, fn, f_W, p_W, n_W, area)"),
-    FAST(step_force_law, "step_force_law(step, w_WB, v_WB, point_A, normal_A, wrench_W)"),
+    FAST(step_force_law, "step_force_law(step, w_WB, v_WB, point_A, normal_A, wrench_W[, elastic])"),
     FAST(step_contact, "step_contact(step, model, p_WB, R_WB, w_WB, v_WB, wrench_W, seconds) -> k, or (status, row, k)"),
     FAST(step_counts, "step_counts(step) -> (n_broad, k): the broad phase's candidates, the pairs kept"),
     FAST(step_elastic, "step_elastic(p_AB, R_AB, hA, hB, kappa, grid) -> (F, area, k_n) of one pose"),

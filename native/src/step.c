@@ -214,6 +214,18 @@ int cc_step_force_law(cc_step *s, const double *w_WB, const double *v_WB, const 
   return run_law(s, w_WB, v_WB, wrench_W);
 }
 
+int cc_step_force_law_given(cc_step *s, const double *w_WB, const double *v_WB, const double *point_A,
+                            const double *normal_A, const double *elastic, double *wrench_W) {
+  if (s != NULL && s->k > 0 && elastic == NULL) return CC_BAD_ARGUMENT;
+  if (s != NULL && elastic != NULL)
+    for (size_t i = 0; i < 3 * s->k; ++i)
+      if (!isfinite(elastic[i])) return CC_BAD_ARGUMENT;
+  if (s != NULL) s->given = elastic;
+  int status = cc_step_force_law(s, w_WB, v_WB, point_A, normal_A, wrench_W);
+  if (s != NULL) s->given = NULL;
+  return status;
+}
+
 /* cc_predict on the asked rows only (packed), the answers put back in their rows */
 static int predict_asked(const cc_model *model, cc_step *s, size_t n_ask, size_t *bad_row) {
   size_t n = 0;

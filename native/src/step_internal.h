@@ -49,6 +49,8 @@ struct cc_step {
   /* per-pair workspace, capacity cap */
   size_t k, cap;
   int have_pairs; /* the candidates are current (cc_step_candidates ran since the last law) */
+  const double *given; /* (k, 3) the caller's elastic answers (F [N], dF/dd [N/m], area [m^2]) for one
+                          law (cc_step_force_law_given), else NULL: the law's own (par.grid) */
   int64_t *ia, *ib;
   double *p_AB, *R_AB, *size_A, *size_B, *point_A, *normal_A, *fn, *f_W, *p_W, *n_W, *area;
   double *kap, *held, *anchors_next, *stuck_next, *F_el, *g, *W_rr, *vn0, *an_ext, *rA, *rB, *cA, *cB, *f;

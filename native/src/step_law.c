@@ -147,7 +147,11 @@ void ccs_pair_wrenches(cc_step *s, const double *w, const double *v, double *out
     double F, area, k_n;
     double *Jd = s->Jd + 9 * r;
     memset(Jd, 0, 9 * sizeof(double));
-    if (q->grid == 0) /* the exact field contact, any pose (step_field.c) */
+    if (s->given != NULL) { /* the caller's own model's answer (cc_step_force_law_given) */
+      F = s->given[3 * r];
+      k_n = py_max(0.0, s->given[3 * r + 1]);
+      area = py_max(0.0, s->given[3 * r + 2]);
+    } else if (q->grid == 0) /* the exact field contact, any pose (step_field.c) */
       ccs_field_stiff(s->p_AB + 3 * r, s->R_AB + 9 * r, hA, hB, s->kap[r], &F, &area, &k_n, Jd);
     else /* the Winkler foundation on the face overlap (step_elastic.c) */
       ccs_elastic_stiff(s->p_AB + 3 * r, s->R_AB + 9 * r, hA, hB, s->kap[r], q->grid, &F, &area, &k_n);

@@ -1,13 +1,14 @@
 """The bench's force section: the closed loop's contact force against the truth's on every held-out
 pose set, as the accuracy section judges the point and normal.
 
-Every predictor the bench judges is driven in the loop by the testbed's force law (a model answers a
-point and a normal; the law supplies the force), so the force is judged once per set, for the law the
-learned loop runs (LearnedDynamicsConfig.grid: 0, the exact field contact), with the former Winkler
+A predictor answers a point and a normal, and the testbed's force law supplies the force, so the
+force is judged once per set for every such predictor, for the law the learned loop runs (LearnedDynamicsConfig.grid: 0, the exact field contact), with the former Winkler
 foundation (grid 4) beside it on the same poses. The truth: Drake's static hydroelastic force at each
 pose (the labels' `force`, exact for Drake's piecewise-linear field; linear in the modulus, so scaled
 to the law's), and for the stiffness the central difference of the truth's force along its direction
-(+-1 um), which the exact answer reproduces to 1e-9 (tests/learned/test_static_contact.py).
+(+-1 um), which the exact answer reproduces to 1e-9 (tests/learned/test_static_contact.py). A user's
+model that answers its own force (the contract's optional force_n, stiffness, area) is driven by it in
+the loop and judged on the same poses (own_force_figures).
 
 Per set: the force magnitude's relative error (median, p95), its direction against the truth's
 pressure-weighted normal (p95 [deg]), the poses whose true force exceeds 1 % of a 10 t weight that get
@@ -79,3 +80,29 @@ def force_section(data: dict, modulus: float = KAPPA_MODULUS) -> dict:
         sets[name] = {"n": len(ds), "exact": _figures(exact.force, exact.stiffness, truth, truth_k, rows),
                       "foundation": _figures(old_force, old[:, 2], truth, truth_k, rows)}
     return {"law": "the exact field contact (grid 0), every predictor alike", "modulus_Pa": modulus, "sets": sets}
+
+
+def own_force_figures(model, data: dict, modulus: float = KAPPA_MODULUS) -> dict:
+    """{set: figures} of a model's own force (ExternalPredictor.contact_force: F along its normal,
+    its stiffness, at FORCE_MODULUS, scaled to `modulus`) against the truth on the pose sets `data`,
+    as force_section judges the law's; the stiffness on the same poses as there."""
+    from learned_contact.predictors.external import FORCE_MODULUS
+
+    out = {}
+    for name, ds in data.items():
+        if ds.force is None or not len(ds):
+            continue
+        truth = ds.force * (modulus / LABEL_MODULUS)
+        rows = model.contact_force(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B) * np.array(
+            [modulus / FORCE_MODULUS, modulus / FORCE_MODULUS, 1.0])
+        _, normal = model.predict(ds.p_AB, ds.R_AB, size_A=ds.size_A, size_B=ds.size_B)
+        n_true = truth / np.maximum(np.linalg.norm(truth, axis=1, keepdims=True), 1e-300)
+        k_rows = np.flatnonzero(np.linalg.norm(truth, axis=1) > 1e3)[:STIFFNESS_POSES]
+        d = DIFFERENCE_M * n_true[k_rows]
+        deeper = static_answer(ds.p_AB[k_rows] - d, ds.R_AB[k_rows], ds.size_A[k_rows], ds.size_B[k_rows],
+                               modulus=modulus).force
+        shallower = static_answer(ds.p_AB[k_rows] + d, ds.R_AB[k_rows], ds.size_A[k_rows], ds.size_B[k_rows],
+                                  modulus=modulus).force
+        truth_k = np.einsum("ni,ni->n", deeper - shallower, n_true[k_rows]) / (2 * DIFFERENCE_M)
+        out[name] = _figures(rows[:, :1] * np.asarray(normal, dtype=float), rows[:, 1], truth, truth_k, k_rows)
+    return out

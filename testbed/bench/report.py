@@ -224,9 +224,20 @@ def size_lines(entry: dict) -> list[str]:
 def verdict_lines(data: dict) -> list[str]:
     """One verdict line per model: the judged models first, then the others as references."""
     judged = data.get("judged") or list(data["leaderboard"])
-    lines = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}" for s in judged]
+    lines = [f"{data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}{_force_source(data['predictors'][s])}"
+             for s in judged]
     return lines + [f"reference {data['predictors'][s]['label']}: {data['predictors'][s]['verdict']}"
-                    for s in data["leaderboard"] if s not in judged]
+                    f"{_force_source(data['predictors'][s])}" for s in data["leaderboard"] if s not in judged]
+
+
+def _force_source(entry: dict) -> str:
+    """Which force moves the model's containers in the loop (bench.json's force_source)."""
+    source = entry.get("force_source")
+    if source == "own":
+        return "; force: its own (force_n, stiffness), judged in the force section"
+    if source == "testbed":
+        return "; force: the testbed's exact field force (the model answers none)"
+    return ""
 
 
 def headline(data: dict) -> tuple[bool, list[str]]:
@@ -261,10 +272,17 @@ def _force(data: dict) -> list[Section]:
              _n(s["exact"]["stiffness_rel_median"], fmt=".2g"), _n(s["exact"]["stiffness_rel_p95"], fmt=".2g"),
              _n(s["foundation"]["force_rel_median"]), _n(s["foundation"]["force_rel_p95"]), s["foundation"]["zero_answers"])
             for name, s in section["sets"].items()]
+    for e in data.get("predictors", {}).values():  # a model's own force, on the same sets
+        for name, f in (e.get("own_force") or {}).items():
+            rows.append((f"{name} ({e['label']}'s own force)", section["sets"].get(name, {}).get("n", "-"),
+                         _n(f["force_rel_median"], fmt=".2g"), _n(f["force_rel_p95"], fmt=".2g"),
+                         _n(f["direction_p95_deg"], fmt=".2g"), f["zero_answers"], _n(f["stiffness_rel_median"], fmt=".2g"),
+                         _n(f["stiffness_rel_p95"], fmt=".2g"), "-", "-", "-"))
     return [Section(f"The contact force the loop applies, against Drake's static force ({section['law']}, "
                     f"{section['modulus_Pa']:.0e} Pa)", [
         Text("A predictor answers a point and a normal; the testbed's law supplies the force that moves the containers, "
-             "the same for every predictor judged here. Truth: Drake's static hydroelastic force at each pose (exact for its "
+             "the same for every predictor that answers no force of its own (a model's own force, rows marked so, drives "
+             "its loop instead). Truth: Drake's static hydroelastic force at each pose (exact for its "
              "piecewise-linear field), its stiffness the central difference of that force (+-1 um). Beside it, the former "
              "Winkler foundation on the face overlap (grid 4) on the same poses."),
         table(["set", "poses", "force error median", "p95", "direction p95 [deg]", "0 N where the truth > 1 % of 10 t",

@@ -28,7 +28,7 @@ from learned_contact.data.sampling import DEFAULT_TYPES
 from learned_contact.sources import SHIPPED_NAMES
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
-from testbed.bench.force import force_section, step_cost_rows
+from testbed.bench.force import force_section, own_force_figures, step_cost_rows
 from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import (
@@ -179,6 +179,10 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
     say("force: the law's against Drake's on the shipped types' pose sets")
     force = force_section(sets[tuple(DEFAULT_TYPES)])
     force["step_cost"] = step_cost_rows(budget_s=0.02 if quick else 0.05)
+    for m in models:  # a model's own force (its contract's optional outputs) drives its loop: judged too
+        entries[m.spec]["force_source"] = "own" if getattr(m.predictor, "has_force", False) else "testbed"
+        if entries[m.spec]["force_source"] == "own":
+            entries[m.spec]["own_force"] = own_force_figures(m.predictor, sets.get(m.types, {}))
     say("cost per query (side by side, one process)")
     costs = cost_table(models, sets[tuple(DEFAULT_TYPES)], repeats=2 if quick else 3)
     for m in models:

@@ -18,7 +18,6 @@ above the truth's own step error (at most 0.020 here, asserted) and below point 
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from testbed import variants

@@ -48,6 +48,7 @@ from pydrake.systems.framework import LeafSystem
 
 from learned_contact import WeightsError, load_predictor, sources
 from learned_contact.interface import SIZE_TOLERANCE
+from learned_contact.predictors.external import FORCE_MODULUS
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
@@ -119,7 +120,7 @@ class LearnedDynamics(LeafSystem):
         self._modulus = modulus  # [Pa] the containers' (shadow truth's) hydroelastic modulus
         # the one contact step of both hosts (raises NativeCoreMissing without the compiled core)
         self._step = ContactStep(self._size, self._free, self._mass, self._I_Bo, self._type, self._kappa_tt, config,
-                                 self._mu, self._h, predictor, NEAR)
+                                 self._mu, self._h, predictor, NEAR, force_scale=modulus / FORCE_MODULUS)
         self._last = None  # the latest step's touching pairs (records, the crane's seating test)
         self.reset_costs()  # (again after the constructor's warm-up call below)
         truth = ShadowTruth([c.type for c in specs], modulus, config.truth_every_steps) if config.shadow_truth else None

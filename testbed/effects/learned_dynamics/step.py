@@ -159,7 +159,7 @@ class ContactStep:
     without the compiled core."""
 
     def __init__(self, size, free, mass, I_Bo, type_index, kappa_by_type, config, mu: float, h: float, predictor,
-                 margin: float = NEAR):
+                 margin: float = NEAR, force_scale: float = 1.0):
         native = require_native()
         self.n = len(free)
         self.size = np.ascontiguousarray(size, dtype=float).reshape(-1, 3)
@@ -174,6 +174,10 @@ class ContactStep:
                                      np.ascontiguousarray(type_index, dtype=np.int64),
                                      np.ascontiguousarray(kappa_by_type, dtype=float), self.params)
         self.model = native_model(predictor)  # None: predictor.predict is called on the candidates
+        # a model that answers its own force (ExternalPredictor.contact_force, at its FORCE_MODULUS) drives the
+        # law's elastic part in place of the exact field contact, scaled to the scene's modulus by force_scale
+        self.own_force = bool(getattr(predictor, "has_force", False))
+        self.force_scale = float(force_scale)
         self.sleeping = getattr(config, "sleeping", None) or SleepingConfig()
         native.step_set_sleep(self._core, self.sleeping.as_tuple())
         self._seconds = np.zeros(3)
@@ -277,8 +281,15 @@ class ContactStep:
                                                            size_B=self.size[pairs.ib[rows]])
                 pairs.point_A[rows] = np.asarray(point_A, dtype=float).reshape(n_ask, 3)
                 pairs.normal_A[rows] = np.asarray(normal_A, dtype=float).reshape(n_ask, 3)
+            if self.own_force and k:
+                elastic = self.predictor.contact_force(pairs.p_AB, pairs.R_AB, size_A=self.size[pairs.ia],
+                                                       size_B=self.size[pairs.ib])
+                elastic[:, :2] *= self.force_scale  # F and dF/dd are linear in the modulus; the area is not
             t2 = time.perf_counter()
-            _native.step_force_law(core, w, v, pairs.point_A, pairs.normal_A, wrench)
+            if self.own_force and k:
+                _native.step_force_law(core, w, v, pairs.point_A, pairs.normal_A, wrench, np.ascontiguousarray(elastic))
+            else:
+                _native.step_force_law(core, w, v, pairs.point_A, pairs.normal_A, wrench)
             _native.step_read(core, None, None, None, None, None, None, None, None, pairs.fn, pairs.f_W, pairs.p_W,
                               pairs.n_W, pairs.area)
             t3 = time.perf_counter()

@@ -47,6 +47,7 @@ import time
 
 import numpy as np
 
+from learned_contact.predictors.external import FORCE_MODULUS
 from testbed import variants
 from testbed.effects.deck_motion import build_law as deck_law
 from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_mujoco, wrench_to_mujoco
@@ -169,7 +170,7 @@ class LearnedContact:
             self.cfg.mu if self.cfg.mu is not None else (friction.mu if friction.mu is not None else MU_SDF))
         # the one contact step of both hosts; it keeps the held state between steps
         self.step = ContactStep(self.size, self.free, self.mass, self.I_Bo, self.type_index, self.kappa_tt, self.cfg,
-                                self.mu, self.h, self.predictor, NEAR)
+                                self.mu, self.h, self.predictor, NEAR, force_scale=effect.modulus / FORCE_MODULUS)
         self._last = None  # the latest step's candidate pairs once read (see last)
         self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
 
