@@ -3,7 +3,8 @@ pose set, as the accuracy section judges the point and normal.
 
 A predictor answers a point and a normal, and the testbed's force law supplies the force, so the
 force is judged once per set for every such predictor, for the law the learned loop runs
-(LearnedDynamicsConfig.grid: 0, the exact field contact), with the former Winkler foundation (grid 4) beside it on the same poses. The truth: Drake's static hydroelastic force at each
+(LearnedDynamicsConfig.grid: 0, the exact field contact), with the former Winkler foundation (grid 4)
+beside it on the same poses. The truth: Drake's static hydroelastic force at each
 pose (the labels' `force`, exact for Drake's piecewise-linear field; linear in the modulus, so scaled
 to the law's), and for the stiffness the central difference of the truth's force along its direction
 (+-1 um), which the exact answer reproduces to 1e-9 (tests/learned/test_static_contact.py). A user's
