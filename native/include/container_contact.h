@@ -22,9 +22,41 @@
 extern "C" {
 #endif
 
-#define CC_ABI_VERSION 2 /* 2: cc_step_sleep gained pair_reuse */
+/* The export macro (Box2D's B2_API habit). Building the shared library: CC_BUILD_SHARED (the
+ * Makefile sets it, with -fvisibility=hidden, so that only the CC_API functions are exported and the
+ * core's internal cci_ / ccs_ / ccz_ functions cannot clash inside a large simulator). Using the
+ * Windows DLL: define CC_USE_SHARED before including this header. A static build or vendored
+ * sources need neither. */
+#if defined(_WIN32) || defined(__CYGWIN__)
+#if defined(CC_BUILD_SHARED)
+#define CC_API __declspec(dllexport)
+#elif defined(CC_USE_SHARED)
+#define CC_API __declspec(dllimport)
+#else
+#define CC_API
+#endif
+#elif defined(__GNUC__) && __GNUC__ >= 4
+#define CC_API __attribute__((visibility("default")))
+#else
+#define CC_API
+#endif
+
+/* Versions (MuJoCo's mj_version() habit): the header's, and the library's at run time. A program
+ * checks CC_ABI_VERSION == cc_abi_version() before anything else (CC_CHECK_VERSION() does): the
+ * ABI version changes whenever a struct or a signature does, so a library built from other headers
+ * is refused instead of misread. CC_VERSION is major * 10000 + minor * 100 + patch. */
+#define CC_VERSION_MAJOR 0
+#define CC_VERSION_MINOR 10
+#define CC_VERSION_PATCH 0
+#define CC_VERSION (CC_VERSION_MAJOR * 10000 + CC_VERSION_MINOR * 100 + CC_VERSION_PATCH)
+#define CC_ABI_VERSION 3 /* 3: cc_step_force_law_given; CC_API exports; 2: cc_step_sleep gained pair_reuse */
+#define CC_CHECK_VERSION() (cc_abi_version() == CC_ABI_VERSION)
 #define CC_MAX_LAYERS 8      /* hidden + output layers of one network */
 #define CC_MAX_DOMAIN 11     /* the resting expert's gate bounds */
+
+/* The library's CC_VERSION and CC_ABI_VERSION, as it was built. */
+CC_API int cc_version(void);
+CC_API int cc_abi_version(void);
 
 /* Status codes (learned_contact.interface.raise_for_status gives their Python errors). */
 enum cc_status {
@@ -72,8 +104,8 @@ typedef struct cc_model {
 /* Reads a predictor file (an uncompressed .npz as numpy.savez writes it; docs/integrate.md).
  * Returns CC_OK or CC_FILE_ERROR with one line in err (which file, which entry, what was
  * expected). The model owns its arrays until cc_model_free. */
-int cc_model_load(const char *path, cc_model *out, char *err, size_t err_len);
-void cc_model_free(cc_model *model);
+CC_API int cc_model_load(const char *path, cc_model *out, char *err, size_t err_len);
+CC_API void cc_model_free(cc_model *model);
 
 /* Contact answers of n poses. p_AB (n, 3) [m]; R_AB (n, 3, 3); size_A (rows_A, 3) and size_B
  * (rows_B, 3) full extents [m], rows 1 (broadcast to every pose) or n. Writes point_A (n, 3)
@@ -81,13 +113,13 @@ void cc_model_free(cc_model *model);
  * be NULL). Poses outside the trained depth range are clipped (the testbed's outside="clip").
  * Returns a cc_status; on an input error *bad_row (may be NULL) is the first bad row and the
  * outputs are unspecified. */
-int cc_predict(const cc_model *model, size_t n, const double *p_AB, const double *R_AB,
+CC_API int cc_predict(const cc_model *model, size_t n, const double *p_AB, const double *R_AB,
                const double *size_A, size_t rows_A, const double *size_B, size_t rows_B,
                double *point_A, double *normal_A, double *depth, size_t *bad_row);
 
 /* The separating-axis penetration depth of n poses [m] (negative: separated by that much),
  * with the same input checks as cc_predict. */
-int cc_depth(const cc_model *model, size_t n, const double *p_AB, const double *R_AB,
+CC_API int cc_depth(const cc_model *model, size_t n, const double *p_AB, const double *R_AB,
              const double *size_A, size_t rows_A, const double *size_B, size_t rows_B,
              double *depth, size_t *bad_row);
 

@@ -81,19 +81,25 @@ typedef struct cc_step_params {
                            body pair: n_types = m, type_index = 0..m-1. Copied by cc_step_create. */
 } cc_step_params;
 
+/* The testbed's defaults (LearnedDynamicsConfig's, the values in brackets above) for a simulator
+ * stepping at h [s]: one container type pair with the fitted kappa at the law's 1e8 Pa
+ * (4.1017e7 Pa/m, the same for every shipped ISO type pair; type_index NULL). Set mu to the
+ * simulator's friction and n_types / kappa for other moduli or sizes. (Box2D's b2DefaultWorldDef habit.) */
+CC_API cc_step_params cc_step_default_params(double h);
+
 typedef struct cc_step cc_step; /* opaque: scene, parameters, held state, workspace */
 
 /* Copies scene and params (checked: finite sizes > 0, h > 0, grid >= 0, sweeps >= 1, kappa finite
  * >= 0, type_index in range); NULL with *status (may be NULL) CC_BAD_ARGUMENT or
  * CC_STEP_NO_MEMORY. The held state starts empty (cc_step_forget). */
-cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params, int *status);
-void cc_step_free(cc_step *step);
+CC_API cc_step *cc_step_create(const cc_step_scene *scene, const cc_step_params *params, int *status);
+CC_API void cc_step_free(cc_step *step);
 /* The scene's body count m. */
-size_t cc_step_n_bodies(const cc_step *step);
+CC_API size_t cc_step_n_bodies(const cc_step *step);
 /* Replaces the parameters (same checks; the scene and held state stay). */
-int cc_step_set_params(cc_step *step, const cc_step_params *params);
+CC_API int cc_step_set_params(cc_step *step, const cc_step_params *params);
 /* Forgets the held state: no pair held, no body's last step (as before the first step). */
-void cc_step_forget(cc_step *step);
+CC_API void cc_step_forget(cc_step *step);
 
 /* The fused step. p_WB (m, 3) [m] body origins in W; R_WB (m, 3, 3); w_WB (m, 3) [rad/s]
  * angular velocities in W; v_WB (m, 3) [m/s] velocities of the body origins Bo in W (a fixed
@@ -104,23 +110,23 @@ void cc_step_forget(cc_step *step);
  * (see cc_step_held_get). Returns
  * CC_OK, or cc_predict's status (then *bad_row (may be NULL) is the candidate pair's row, the
  * wrenches are zero and the held state is unchanged), or CC_STEP_NO_MEMORY. */
-int cc_contact_step(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
+CC_API int cc_contact_step(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
                     const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row);
 /* cc_contact_step, timed: seconds (3) [s] receives the wall time (C11 timespec_get) of the
  * candidates, the predictor and the force law, for a host that reports the predictor's share. */
-int cc_contact_step_timed(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
+CC_API int cc_contact_step_timed(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
                           const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row,
                           double seconds[3]);
 
 /* Split step, part 1: the candidate pairs of the poses p_WB, R_WB (kept for part 2); *n_pairs
  * their count k. cc_step_view then gives ia, ib, p_AB, R_AB, size_A, size_B of each. */
-int cc_step_candidates(cc_step *step, const double *p_WB, const double *R_WB, size_t *n_pairs);
+CC_API int cc_step_candidates(cc_step *step, const double *p_WB, const double *R_WB, size_t *n_pairs);
 /* Split step, part 2: the force law on the last cc_step_candidates' pairs, with the
  * predictor's point_A (k, 3) [m] (A's frame) and unit normal_A (k, 3) (A's frame, from A into
  * B) of each (NULL when k = 0); the velocities as in cc_contact_step. Writes wrench_W (m, 6)
  * and commits the held state, as cc_contact_step. Returns CC_OK, or CC_BAD_ARGUMENT (a null
  * array, or no cc_step_candidates since the last force law: run the two parts in turn). */
-int cc_step_force_law(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
+CC_API int cc_step_force_law(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
                       const double *normal_A, double *wrench_W);
 
 /* cc_step_force_law with the caller's own elastic answer per candidate pair instead of the law's
@@ -129,7 +135,7 @@ int cc_step_force_law(cc_step *step, const double *w_WB, const double *v_WB, con
  * torsional friction's radius, 0 for none), at the modulus the scene runs at. The law's damping
  * (Hunt-Crossley on F, at the point: no surface torque without the field's second moment) and
  * friction act on it as on the law's own. Every value must be finite (else CC_BAD_ARGUMENT). */
-int cc_step_force_law_given(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
+CC_API int cc_step_force_law_given(cc_step *step, const double *w_WB, const double *v_WB, const double *point_A,
                             const double *normal_A, const double *elastic, double *wrench_W);
 
 /* The latest step's candidate pairs (k of them, A = ia < B = ib), borrowed from the step:
@@ -149,7 +155,7 @@ typedef struct cc_step_pairs {
   const double *area;        /* (k) [m^2] face-overlap area */
   size_t n_broad;            /* the broad phase's candidates before the narrow tests (>= k) */
 } cc_step_pairs;
-void cc_step_view(const cc_step *step, cc_step_pairs *out);
+CC_API void cc_step_view(const cc_step *step, cc_step_pairs *out);
 
 /* The held state, for a host that keeps it itself (Drake's abstract state): s pairs held
  * (those stuck or with positive normal force at the last step), keys (s) int64 = ia * m + ib
@@ -157,11 +163,11 @@ void cc_step_view(const cc_step *step, cc_step_pairs *out);
  * stuck flag (1.0 / 0.0), the last normal force [N] (the next solve's warm start); history
  * (m, CC_STEP_BODY): each body's v_W, w_W at the last step and the normal wrench (tau_W, f_W)
  * the law applied then; a row of NaN = no last step. */
-size_t cc_step_held_count(const cc_step *step);
-void cc_step_held_get(const cc_step *step, int64_t *keys, double *rows, double *history);
+CC_API size_t cc_step_held_count(const cc_step *step);
+CC_API void cc_step_held_get(const cc_step *step, int64_t *keys, double *rows, double *history);
 /* Replaces the held state (copied); CC_BAD_ARGUMENT if keys do not ascend or a key is out of
  * range (then the state is unchanged). history may be NULL: no body's last step. */
-int cc_step_held_set(cc_step *step, size_t s, const int64_t *keys, const double *rows, const double *history);
+CC_API int cc_step_held_set(cc_step *step, size_t s, const int64_t *keys, const double *rows, const double *history);
 
 /* ---------------------------------------------------------------- sleeping
  * A settled yard's contacts need not be asked again every step. With sleeping enabled
@@ -201,6 +207,10 @@ typedef struct cc_step_sleep {
   int pair_reuse; /* 1 = pair reuse (above) too; 0 = island sleeping alone */
 } cc_step_sleep;
 
+/* The testbed's sleeping defaults (its SleepingConfig: on, rest below 1e-3 m/s and 1e-3 rad/s for 0.3 s,
+ * woken at 0.1 mm or 1e-6 rad, no pair reuse; testbed/effects/learned_dynamics/step.py says why each). */
+CC_API cc_step_sleep cc_step_default_sleep(void);
+
 /* The latest step's sleeping figures. */
 typedef struct cc_step_sleep_counts {
   size_t asked;          /* candidate pairs the predictor was asked about */
@@ -212,11 +222,11 @@ typedef struct cc_step_sleep_counts {
 
 /* Sets the sleeping parameters (NULL = off); CC_BAD_ARGUMENT for a negative or non-finite
  * figure (then nothing changes). Turning it off or on clears the sleeping state. */
-int cc_step_set_sleep(cc_step *step, const cc_step_sleep *sleep);
+CC_API int cc_step_set_sleep(cc_step *step, const cc_step_sleep *sleep);
 /* Clears the sleeping state: every body awake with no rest time, no answer kept. */
-void cc_step_sleep_reset(cc_step *step);
+CC_API void cc_step_sleep_reset(cc_step *step);
 /* The host wakes bodies (n of them, body indices): their islands are asked at the next step. */
-void cc_step_sleep_wake(cc_step *step, size_t n, const int64_t *bodies);
+CC_API void cc_step_sleep_wake(cc_step *step, size_t n, const int64_t *bodies);
 /* Split step, between cc_step_candidates and the predictor: updates the rest times and the
  * islands with the step's velocities w_WB, v_WB (m, 3) (as cc_contact_step's) and writes
  * ask (k): 1 = ask the predictor about this candidate, 0 = asleep: its last answer is already
@@ -224,8 +234,8 @@ void cc_step_sleep_wake(cc_step *step, size_t n, const int64_t *bodies);
  * (k, 3) holding the predictor's answers on the asked rows and these on the others.
  * *n_asked (may be NULL) counts the 1s. With sleeping off every row is asked. The fused
  * cc_contact_step does all this itself. CC_BAD_ARGUMENT without candidates. */
-int cc_step_sleep_plan(cc_step *step, const double *w_WB, const double *v_WB, uint8_t *ask, size_t *n_asked);
-void cc_step_sleep_get_counts(const cc_step *step, cc_step_sleep_counts *out);
+CC_API int cc_step_sleep_plan(cc_step *step, const double *w_WB, const double *v_WB, uint8_t *ask, size_t *n_asked);
+CC_API void cc_step_sleep_get_counts(const cc_step *step, cc_step_sleep_counts *out);
 
 /* The exact static hydroelastic contact of two compliant boxes at one pose, any orientation
  * (corners, edges, any yaw; native/src/step_field.c): the integrals of Drake's medial-axis pressure
@@ -246,7 +256,7 @@ typedef struct cc_field_contact {
 } cc_field_contact;
 
 /* p_AB (3) [m], R_AB (9, row-major), half extents hA, hB (3) [m], moduli [Pa]; *out zeroed apart. */
-void cc_static_contact(const double p_AB[3], const double R_AB[9], const double hA[3], const double hB[3],
+CC_API void cc_static_contact(const double p_AB[3], const double R_AB[9], const double hA[3], const double hB[3],
                        double modulus_A, double modulus_B, cc_field_contact *out);
 
 /* The force law's elastic part for one pose (p_AB (3) [m], R_AB (9), half extents hA, hB (3)
@@ -254,7 +264,7 @@ void cc_static_contact(const double p_AB[3], const double R_AB[9], const double 
  * overlap [N], out[1] the overlap area [m^2], out[2] the normal stiffness dF/dd = kappa x the
  * wetted area [N/m]; on the face pair of least overlap among the six face axes; zeros when
  * that overlap is not positive. grid: quadrature points across the overlap (>= 1). */
-void cc_step_elastic(const double p_AB[3], const double R_AB[9], const double hA[3], const double hB[3],
+CC_API void cc_step_elastic(const double p_AB[3], const double R_AB[9], const double hA[3], const double hB[3],
                      double kappa, int grid, double out[3]);
 
 /* ---------------------------------------------------------------- host helpers
@@ -264,18 +274,18 @@ void cc_step_elastic(const double p_AB[3], const double R_AB[9], const double hA
  * [w_WB, v_WB]); q_start, v_start (m) each free body's first index in x (v_start counted from
  * x[0], i.e. num_positions + the velocity start); fixed bodies (free[i] = 0) take fixed_p
  * (m, 3), fixed_R (m, 3, 3) and zero velocity. Writes p, R, w, v (m, 3 / 3x3). */
-void cc_step_bodies_from_drake(size_t m, const double *x, const int64_t *q_start, const int64_t *v_start,
+CC_API void cc_step_bodies_from_drake(size_t m, const double *x, const int64_t *q_start, const int64_t *v_start,
                                const double *fixed_p, const double *fixed_R, const uint8_t *free,
                                double *p_WB, double *R_WB, double *w_WB, double *v_WB);
 /* MuJoCo (after mj_step1): xpos (nbody, 3), xmat (nbody, 9), qvel (nv); body (m) each body's
  * id; dof (m) each free body's free joint's first dof (qvel[dof..]: v_W of Bo, w in B), -1 if
  * fixed. Writes p, R, w (in W), v. */
-void cc_step_bodies_from_mujoco(size_t m, const double *xpos, const double *xmat, const double *qvel,
+CC_API void cc_step_bodies_from_mujoco(size_t m, const double *xpos, const double *xmat, const double *qvel,
                                 const int64_t *body, const int64_t *dof, const uint8_t *free,
                                 double *p_WB, double *R_WB, double *w_WB, double *v_WB);
 /* MuJoCo: xfrc_applied (nbody, 6) [force, torque about the COM xipos, in W] of each free body
  * from wrench_W (m, 6) (torque about Bo = xpos, force); every other row zeroed. */
-void cc_step_wrench_to_mujoco(size_t m, size_t nbody, const double *wrench_W, const int64_t *body,
+CC_API void cc_step_wrench_to_mujoco(size_t m, size_t nbody, const double *wrench_W, const int64_t *body,
                               const uint8_t *free, const double *xpos, const double *xipos, double *xfrc_applied);
 
 #ifdef __cplusplus
