@@ -44,7 +44,9 @@ class OptionalBuildExt(build_ext):
 
 # IEEE arithmetic as written: no fused multiply-adds or reassociation, so the core's answers
 # match the numpy reference to 1e-12 m whatever the compiler's defaults
-FLAGS = ["-std=c11", "-O2", "-ffp-contract=off", "-fno-fast-math"]
+# -fvisibility=hidden: the extension exports its module's init function alone (PyMODINIT_FUNC is
+# visible by default), not the core's internal functions (native/Makefile builds the C library so too)
+FLAGS = ["-std=c11", "-O2", "-ffp-contract=off", "-fno-fast-math", "-fvisibility=hidden"]
 
 setup(
     ext_modules=[Extension(

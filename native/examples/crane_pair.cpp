@@ -157,24 +157,9 @@ int run_steps(const Model &model, const Options &opt) {
   const uint8_t is_free[2] = {0, 1};
   const double masses[2] = {INFINITY, mass};
   const cc_step_scene scene{2, sizes, is_free, masses, I_Bo, nullptr};
-  // The testbed's learned law defaults (testbed/effects/learned_dynamics/effect.py,
-  // LearnedDynamicsConfig) and its fitted Winkler stiffness at the law's 1e8 Pa modulus
-  // (force_law.py FITTED_KAPPA).
-  const double kappa = 4.1017e7;  // [Pa/m]
-  cc_step_params params{};
-  params.margin = 0.05;
-  params.h = h;
-  params.dissipation = 5.0;
-  params.mu = 0.4;
-  params.stick_hw = 0.3;
-  params.stick_zeta = 0.5;
-  params.slip = 1e-4;
-  params.stiction = 0.5;
-  params.torsional = 1;
-  params.grid = 0; /* the exact field contact (cc_static_contact); >= 1: the foundation */
-  params.sweeps = 4;
-  params.n_types = 1;
-  params.kappa = &kappa;
+  // The testbed's learned law defaults (its LearnedDynamicsConfig) and the fitted stiffness at the
+  // law's 1e8 Pa modulus, for a simulator stepping at h; a simulator sets mu to its own friction.
+  const cc_step_params params = cc_step_default_params(h);
   int status = CC_OK;
   Step step;
   step.s = cc_step_create(&scene, &params, &status);
@@ -364,6 +349,11 @@ int main(int argc, char **argv) {
     else return usage();
   }
   if ((poses == nullptr) != (out == nullptr)) return usage();
+  if (!CC_CHECK_VERSION()) {  // a library built from other headers: refuse it rather than misread its structs
+    std::fprintf(stderr, "crane_pair: the library's ABI version is %d; this program was built with %d\n",
+                 cc_abi_version(), CC_ABI_VERSION);
+    return kExitInput;
+  }
   Model model;
   if (const int rc = load(weights, model)) return rc;
   return poses ? run_batch(model, poses, out) : run_steps(model, opt);
