@@ -132,6 +132,10 @@ def run(args) -> int:
     check_options(args)
     path = resolve_scene_path(args.scene)
     scenario = load_scenario(path, overrides=args.set or [])
+    if args.no_truth:  # no Drake run would check the scene: check it as `testbed run` does, before anything runs
+        from testbed.builder import build_scene
+
+        build_scene(scenario, source_label(path, args.set))
     predictor = predictor_for(scenario, args.predictor)  # once: the candidates and the output's name take it
     plan = ComparePlan.of(args, scenario, source_label(path, args.set), predictor,
                           candidate_list(args.engine, predictor, args.params, no_truth=args.no_truth))

@@ -318,6 +318,8 @@ def _write_unjudged(out_dir, figures: dict, runs: dict) -> None:
     candidate slug) in trajectories.npz."""
     with atomic_directory(out_dir) as tmp:
         arrays = {}
+        names = next((r.trajectory.names for r in runs.values() if len(r.trajectory.names)), ())
+        arrays["names"] = np.array(names, dtype=str)  # the free containers, in the series' order (docs/commands.md)
         for label, run in runs.items():
             t, k = run.trajectory, slug(label)
             arrays.update({f"{k}_time": t.time, f"{k}_p_WB": t.p_WB, f"{k}_q_WB": t.q_WB, f"{k}_V_WB": t.V_WB,

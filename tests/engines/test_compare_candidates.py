@@ -51,8 +51,27 @@ def test_no_truth_times_the_candidates_without_drake(tmp_path, monkeypatch, caps
     c = f["candidates"]["learned (improved)"]
     assert c["simulated_s"] == pytest.approx(0.05) and c["error"] == "" and c["wall_per_sim_s"] > 0
     assert "wall_per_sim_s_truth" not in f and "gates" not in f
+    with np.load(out / "trajectories.npz") as z:  # the records carry the names docs/commands.md lists
+        free = [c.name for c in load_scenario("two_stack").containers if not c.fixed]
+        assert list(z["names"]) == free and z["learned_improved_p_WB"].shape[1] == len(free)
     printed = capsys.readouterr().out.strip().splitlines()
     assert printed[-1] == f"verdict: {rc.NO_REFERENCE} (exit status 0)"
+    timed = next(line for line in printed if line.strip().startswith("learned (improved):"))
+    assert f"real-time factor {1.0 / c['wall_per_sim_s']:.2f}x" in timed and "t = 0-0.05 s" in timed
+
+
+def test_no_truth_checks_the_scene_as_run_does(tmp_path, monkeypatch):
+    """A load starting 0.6 m inside the box below: `testbed run` refuses it (exit 2), and so does
+    compare --no-truth, before any candidate runs (it ran with exit 0 before)."""
+    from testbed.cli import main
+
+    monkeypatch.setattr(rc, "compare_candidates", lambda *a, **k: (_ for _ in ()).throw(AssertionError("ran")))
+    overlap = ["--set", "containers[1].X_WC.translation=[0, 0, 3.3]"]
+    assert main(["run", "two_stack", *overlap, "--duration", "0.01", "--out", str(tmp_path / "r")]) == 2
+    for engine in ("learned", "mujoco_learned"):
+        assert main(["compare", "two_stack", *overlap, "--no-truth", "--engine", engine, "--no-replay",
+                     "--out", str(tmp_path / engine)]) == 2, engine
+        assert not (tmp_path / engine).exists()
 
 
 def test_a_learned_candidate_needs_a_learned_engine():
