@@ -8,6 +8,21 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+LISTED = 12  # names a "one of" list shows before it says how many more there are
+
+
+def one_of(value: object, choices: Iterable[str]) -> str:
+    """"did you mean X? expected one of: a, b, ..." for a name a user typed (difflib's close matches
+    first; a long list cut to LISTED names and how many more)."""
+    import difflib
+
+    names = [str(c) for c in choices]
+    close = difflib.get_close_matches(str(value), names, n=3, cutoff=0.6)
+    head = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
+    shown = ", ".join(names[:LISTED]) + (f", ... ({len(names) - LISTED} more, {len(names)} in all)"
+                                         if len(names) > LISTED else "")
+    return f"{head}expected one of: {shown}"
+
 
 class TestbedError(Exception):
     """Base class of every error the testbed raises on purpose."""
@@ -22,7 +37,7 @@ class UnknownChoiceError(TestbedError, ValueError):
         self.what = what
         self.value = value
         self.choices = list(choices)
-        super().__init__(f"unknown {what} {value!r}; expected one of: {', '.join(self.choices)}")
+        super().__init__(f"unknown {what} {value!r}; {one_of(value, self.choices)}")
 
 
 class ScenarioError(TestbedError, ValueError):

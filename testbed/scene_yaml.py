@@ -13,7 +13,7 @@ import typing
 import yaml
 from pydrake.common.schema import Transform
 
-from testbed.errors import ScenarioError
+from testbed.errors import ScenarioError, one_of
 from testbed.safe_files import BoundedYamlMixin, yaml_problem
 
 MAX_OVERRIDE_CHARS = 4096  # one --set value; a scene field's value is a few dozen characters
@@ -100,7 +100,7 @@ def check_raw(value, schema, path: str, source) -> None:
                 raise ScenarioError(source, path, "expected a transform mapping {translation: [x, y, z], rotation: !Rpy {deg: [r, p, y]}}")
             unknown = set(value) - set(fields)
             if unknown:
-                raise ScenarioError(source, _join(path, sorted(unknown)[0]), f"unknown field; expected one of: {', '.join(fields)}")
+                raise ScenarioError(source, _join(path, sorted(unknown)[0]), f"unknown field; {one_of(sorted(unknown)[0], fields)}")
             t = value.get("translation")
             if t is not None and not (isinstance(t, list) and len(t) == 3 and all(_is_number(x) for x in t)):
                 raise ScenarioError(source, _join(path, "translation"), f"expected 3 numbers [x, y, z] in metres, got {t!r}")
@@ -110,7 +110,7 @@ def check_raw(value, schema, path: str, source) -> None:
         for key, sub in value.items():
             if key not in fields:
                 what = "unknown effect" if path == "effects" else "unknown field"
-                raise ScenarioError(source, _join(path, key), f"{what} {key!r}; expected one of: {', '.join(fields)}")
+                raise ScenarioError(source, _join(path, key), f"{what} {key!r}; {one_of(key, fields)}")
             check_raw(sub, fields[key], _join(path, key), source)
         return
     if origin is typing.Union:

@@ -32,6 +32,7 @@ from pydrake.systems.framework import LeafSystem
 
 from testbed.effects import register
 from testbed.effects.base import Effect, Role
+from testbed.errors import one_of
 from testbed.physics import GRAVITY
 
 MAX_INITIAL_TILT_RAD = 0.1  # [rad] a rope more than this off vertical at t = 0 is refused
@@ -318,7 +319,8 @@ class CraneEffect(Effect):
         super().check(effects)
         names = {c.name: c for c in self.scenario.containers}
         if self.config.container not in names:
-            raise self.fail("container", f"expected the name of a container in this scene, one of: {', '.join(names)}; got {self.config.container!r}")
+            raise self.fail("container", f"{self.config.container!r} is not a container in this scene; "
+                            f"{one_of(self.config.container, names)}")
         if names[self.config.container].fixed:
             raise self.fail("container", "the carried container must not be fixed")
         for field in ("trolley_height", "rope_EA"):

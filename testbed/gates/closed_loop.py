@@ -140,7 +140,8 @@ DEFAULT_SCENES = (("two_stack", 2.0), ("five_stack", 2.0), ("nine_mixed_stack", 
 # yard_storm joined it (docs/results.md); those two cost 14.2 and 20.8 s of worker CPU per case
 # (truth, point, improved, paper and the sensitivity check; measured on the 2 shared cores, load ~12).
 # CPU seconds below: the case's where measured so, else `testbed compare`'s (truth, point, improved).
-FULL_EXTRA = (("corner_drop", 2.0), ("crane_yawed_landing", 2.5), ("yard_swing_strike", 3.0), ("yard_block_landing", 2.5), ("yard_small", 1.0), ("yard_wind", 2.0),
+FULL_EXTRA = (("corner_drop", 2.0), ("crane_yawed_landing", 2.5), ("yard_swing_strike", 3.0), ("yard_block_landing", 2.5),
+              ("yard_small", 1.0), ("yard_wind", 2.0),
               ("yard_crane_slot", 13.5), ("yard_block", 1.0), ("ship_bay_roll", 2.5), ("ship_bay_open", 2.5),
               ("ship_bay_large", 0.5))
 FULL_EXTRA_WHY = {

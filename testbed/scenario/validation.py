@@ -13,7 +13,7 @@ from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.bodies.models import GROUND_NAME
 from testbed.bodies.yards import validate_yard, yard_slots
 from testbed.effects import registry
-from testbed.errors import ScenarioError
+from testbed.errors import ScenarioError, one_of
 from testbed.scenario.spec import TRUTH_REFERENCES, ContainerSpec, Scenario
 
 
@@ -38,7 +38,7 @@ def validate_scenario(scenario: Scenario, source: object = "<scenario>") -> dict
     for i, c in enumerate(scenario.containers):
         where = f"containers[{i}]"
         if c.type not in CONTAINER_TYPES and c.type != BOX_TYPE:
-            raise ScenarioError(source, f"{where}.type", f"unknown container type {c.type!r}; expected one of: {', '.join(CONTAINER_TYPES)}, {BOX_TYPE}")
+            raise ScenarioError(source, f"{where}.type", f"unknown container type {c.type!r}; {one_of(c.type, [*CONTAINER_TYPES, BOX_TYPE])}")
         validate_box(c, where, source)
         if not c.name or not c.name.replace("_", "").isalnum():
             raise ScenarioError(source, f"{where}.name", f"expected a non-empty name of letters, digits and '_', got {c.name!r}")

@@ -115,3 +115,30 @@ def test_exit_status_is_2_from_the_real_command(tmp_path):
     assert out.returncode == 2
     assert "containers[0].type" in out.stderr
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("override,field,suggestion", [
+    ("containers[0].masss=3", "containers[0].masss", "did you mean 'mass'?"),
+    ("effects.cran={}", "effects.cran", "did you mean 'crane'?"),
+    ("containers[0].type=1AAA2", "containers[0].type", "did you mean '1AAA' or '1AA'?"),
+])
+def test_a_mistyped_name_gets_the_names_it_was_close_to(override, field, suggestion):
+    """One line naming the field, the close names first, then the whole short list."""
+    from testbed.errors import ScenarioError
+    from testbed.scenario import load_scenario
+
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("two_stack", overrides=[override])
+    message = str(info.value)
+    assert f": {field}: " in message and suggestion in message and "expected one of: " in message, message
+    assert "\n" not in message
+
+
+def test_a_long_list_of_names_is_cut_and_counted():
+    from testbed.errors import LISTED, one_of
+
+    names = [f"blk_r{i}_b1_t1" for i in range(200)]
+    text = one_of("blk_r1_b1_t9", names)
+    assert text.startswith("did you mean 'blk_r1_b1_t1'") and f"({200 - LISTED} more, 200 in all)" in text
+    assert len(text) < 300  # was 2,952 characters for a 200-container yard
+    assert one_of("zzz", ["a", "b"]) == "expected one of: a, b"
