@@ -184,11 +184,9 @@ done:
  * with elastic, the caller's own (F [N], dF/dd [N/m], area [m^2]) per pair (cc_step_force_law_given) */
 static PyObject *py_step_force_law(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
   (void)self;
-  if (nargs != 6 && nargs != 7) {
-    PyErr_Format(PyExc_TypeError, "step_force_law expects 6 or 7 arguments (step, w_WB, v_WB, point_A, normal_A, "
-                 "wrench_W[, elastic]), got %zd", nargs);
-    return NULL;
-  }
+  if (nargs != 6 && nargs != 7)
+    return PyErr_Format(PyExc_TypeError, "step_force_law expects 6 or 7 arguments (step, w_WB, v_WB, point_A, "
+                        "normal_A, wrench_W[, elastic]), got %zd", nargs);
   cc_step *s = cc_py_step_of(args[0]);
   if (s == NULL) return NULL;
   Py_ssize_t m = n_bodies(s);
@@ -204,16 +202,9 @@ static PyObject *py_step_force_law(PyObject *self, PyObject *const *args, Py_ssi
       cc_py_take(&b, args[4], "normal_A", 'd', 3 * k, 0, 0, &nA, NULL) == 0 &&
       cc_py_take(&b, args[5], "wrench_W", 'd', 6 * m, 1, 0, &out, NULL) == 0 &&
       (nargs == 6 || cc_py_take(&b, args[6], "elastic", 'd', 3 * k, 0, 0, &given, NULL) == 0)) {
-    int status = nargs == 6 ? cc_step_force_law(s, w, v, pA, nA, out)
-                            : cc_step_force_law_given(s, w, v, pA, nA, given, out);
-    if (status == CC_OK) {
-      result = Py_None;
-      Py_INCREF(result);
-    } else {
-      cc_py_status_error(status, nargs == 6 ? "step_force_law (run step_candidates first, once per law)"
-                                            : "step_force_law (run step_candidates first, once per law; every "
-                                              "elastic value finite)");
-    }
+    int status = nargs == 6 ? cc_step_force_law(s, w, v, pA, nA, out) : cc_step_force_law_given(s, w, v, pA, nA, given, out);
+    if (status == CC_OK) result = Py_NewRef(Py_None);
+    else cc_py_status_error(status, "step_force_law (run step_candidates first, once per law; elastic values finite)");
   }
   cc_py_release(&b);
   return result;

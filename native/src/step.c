@@ -7,6 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#if defined(_WIN32)
+#include <windows.h>
+#endif
 
 #include "step_internal.h"
 
@@ -251,11 +254,19 @@ static int predict_asked(const cc_model *model, cc_step *s, size_t n_ask, size_t
   return CC_OK;
 }
 
+#if defined(_WIN32) /* MinGW-w64's C runtime (msvcrt) has no timespec_get */
+static double now_s(void) {
+  LARGE_INTEGER f, c;
+  if (!QueryPerformanceFrequency(&f) || !QueryPerformanceCounter(&c)) return 0.0;
+  return (double)c.QuadPart / (double)f.QuadPart;
+}
+#else
 static double now_s(void) {
   struct timespec t;
   if (timespec_get(&t, TIME_UTC) != TIME_UTC) return 0.0;
   return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
+#endif
 
 int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB, const double *R_WB,
                           const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row,

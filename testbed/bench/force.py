@@ -22,6 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from learned_contact.data.labels import LABEL_MODULUS
+from learned_contact.predictors.external import FORCE_MODULUS
+from testbed.bench import step_cost
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
 from testbed.effects.learned_dynamics.static import static_answer
 from testbed.effects.learned_dynamics.step import elastic
@@ -49,8 +51,6 @@ def _figures(force, stiffness, truth, truth_k, rows) -> dict:
 def step_cost_rows(budget_s: float = 0.05) -> dict:
     """{state: {"ratio", "exact_us", "foundation_us", "verdict"}}: the learned step's cost with the exact
     force over the foundation's, side by side (testbed/bench/step_cost.py); {} without the native core."""
-    from testbed.bench import step_cost
-
     try:
         measured = step_cost.ratios(budget_s)
     except ImportError:
@@ -87,8 +87,6 @@ def own_force_figures(model, data: dict, modulus: float = KAPPA_MODULUS) -> dict
     """{set: figures} of a model's own force (ExternalPredictor.contact_force: F along its normal,
     its stiffness, at FORCE_MODULUS, scaled to `modulus`) against the truth on the pose sets `data`,
     as force_section judges the law's; the stiffness on the same poses as there."""
-    from learned_contact.predictors.external import FORCE_MODULUS
-
     out = {}
     for name, ds in data.items():
         if ds.force is None or not len(ds):

@@ -8,6 +8,7 @@ import json
 import math
 from pathlib import Path
 
+from testbed.bench.step_cost import ISSUE_TARGET, WHY
 from testbed.bench.yard_budget import budget_section
 from testbed.document import Bullets, Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
 from testbed.gates.closed_loop import DISCRIMINATION
@@ -294,8 +295,6 @@ def _step_cost(rows: dict) -> list:
     """What the exact force costs in the step, as ratios to the foundation's (testbed/bench/step_cost.py)."""
     if not rows:
         return []
-    from testbed.bench.step_cost import ISSUE_TARGET, WHY
-
     return [Text(f"What it costs: the learned step (candidates, predictor, force law) with the exact force over the same step "
                  f"with the foundation, timed side by side (CPU time); target at most {ISSUE_TARGET:g}x. Where it is not met: "
                  f"{WHY}."),

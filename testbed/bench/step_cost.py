@@ -15,6 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from learned_contact.sources import load_predictor
+from testbed.effects.learned_dynamics.step import native_model, require_native
+
 ISSUE_TARGET = 1.5  # [-] the step's cost per pair with the exact force / with the foundation
 STATES = {"yard block (72 resting pairs)": 2, "nine mixed stack (8 pairs)": 6, "slide on a box": 8,
           "tilted drop, landed": 14}
@@ -45,10 +48,7 @@ def step_seconds(native, model, ref, s: int, grid: int, steps: int, clock=time.p
 
 def ratios(budget_s: float = 0.05) -> dict:
     """{state: (exact / foundation cost ratio, exact [us per step], foundation [us per step])}."""
-    from learned_contact import _native
-    from learned_contact.sources import load_predictor
-    from testbed.effects.learned_dynamics.step import native_model
-
+    _native = require_native()  # NativeCoreMissing (an ImportError) without the compiled core
     model = native_model(load_predictor("improved"))
     with np.load(REFERENCE) as z:
         ref = {k: z[k] for k in z.files}

@@ -1,5 +1,5 @@
-"""The shipped scenes where a contact's force away from aligned faces acts (issue 45's closed-loop
-scenes besides corner_drop): each run's physical check, for the truth (Drake hydroelastic), the learned
+"""The shipped scenes where a contact's force away from aligned faces acts (the force work's
+closed-loop scenes besides corner_drop): each run's physical check, for the truth (Drake hydroelastic), the learned
 loop and Drake point contact from the same start, and where the force decides the outcome, the
 learned loop against the former Winkler law (grid 4) as the simplest alternative. validate judges
 their gates (testbed/gates/closed_loop.py); these hold what the scenes claim to show.

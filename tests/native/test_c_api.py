@@ -1,4 +1,4 @@
-"""The C API's conventions (issue 48): an export macro with hidden visibility, a run-time version and
+"""The C API's conventions that simulators' integrators expect: an export macro with hidden visibility, a run-time version and
 ABI check, and defaults functions, on the library `make -C native` builds.
 
 - The shared library exports exactly the functions the two headers declare CC_API, all named cc_*:
