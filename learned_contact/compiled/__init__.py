@@ -21,6 +21,7 @@ import sys
 from learned_contact.compiled.kernels import (
     ACTIVATION_CODES,
     KIND_CODES,
+    STALE,
     STATUS_NAMES,
     _native,
     box_depth,
@@ -36,8 +37,8 @@ from learned_contact.compiled.kernels import (
 )
 
 NATIVE_AVAILABLE = _native is not None
-NOT_BUILT = ("native core not built: using the numpy reference path (install a C compiler and run "
-             "pip install -e . again)")
+NOT_BUILT = (f"{STALE}: using the numpy reference path" if STALE else
+             "native core not built: using the numpy reference path (install a C compiler and run pip install -e . again)")
 _said = False
 
 

@@ -19,9 +19,29 @@ import importlib
 
 import numpy as np
 
+ABI_VERSION = 3  # CC_ABI_VERSION of the headers this binding's calls were written against
+
 try:  # by name: `from learned_contact import _native` reads to import-linter as the package's __init__
     _native = importlib.import_module("learned_contact._native")
 except ImportError:  # not built: learned_contact.compiled.NATIVE_AVAILABLE is False
+    _native = None
+
+
+def stale(module, expected: int = ABI_VERSION) -> str | None:
+    """Why an extension module cannot be called into (its header's and its core's ABI versions are not
+    `expected`: built from other sources, as a checkout pulled without `pip install -e .` again), or None."""
+    if module is None:
+        return None
+    header, library = getattr(module, "ABI_VERSION", None), getattr(module, "LIBRARY_ABI_VERSION", None)
+    if header == library == expected:
+        return None
+    return f"native core built for ABI {library if library is not None else header}, this code needs {expected}: " \
+           "run pip install -e . again"
+
+
+# The version check (MuJoCo's mj_version habit): a stale extension is not called into, and says so.
+STALE = stale(_native)
+if STALE is not None:
     _native = None
 
 ACTIVATION_CODES = {"tanh": 0, "silu": 1, "relu": 2}  # enum cc_activation

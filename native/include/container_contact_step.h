@@ -112,6 +112,22 @@ CC_API void cc_step_forget(cc_step *step);
  * wrenches are zero and the held state is unchanged), or CC_STEP_NO_MEMORY. */
 CC_API int cc_contact_step(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,
                     const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row);
+/* A predictor of the caller's own (a user's ONNX model through onnxruntime's C API, a network in C, ...)
+ * for cc_contact_step_with: answers n pairs, p_AB (n, 3) [m], R_AB (n, 3, 3), size_A, size_B (n, 3) full
+ * extents [m] (A's frame, as cc_predict), writing point_A and normal_A (n, 3) (the point in A [m], the unit
+ * normal from A into B). Returns CC_OK, or any other status (then *bad_row, if it sets it, names the pair:
+ * the step's wrenches are zero and its held state unchanged, as for cc_predict's refusal). user: the
+ * caller's pointer, passed through. Called once per step with the candidates sleeping leaves to ask. */
+typedef int (*cc_predict_fn)(void *user, size_t n, const double *p_AB, const double *R_AB, const double *size_A,
+                             const double *size_B, double *point_A, double *normal_A, size_t *bad_row);
+
+/* cc_contact_step with the caller's predictor instead of a cc_model: the same candidates, sleeping, force
+ * law and held state; with cc_predict wrapped in a cc_predict_fn it gives cc_contact_step's answers.
+ * CC_BAD_ARGUMENT for a NULL predict. */
+CC_API int cc_contact_step_with(cc_predict_fn predict, void *user, cc_step *step, const double *p_WB,
+                                const double *R_WB, const double *w_WB, const double *v_WB, double *wrench_W,
+                                size_t *bad_row);
+
 /* cc_contact_step, timed: seconds (3) [s] receives the wall time (C11 timespec_get) of the
  * candidates, the predictor and the force law, for a host that reports the predictor's share. */
 CC_API int cc_contact_step_timed(const cc_model *model, cc_step *step, const double *p_WB, const double *R_WB,

@@ -46,7 +46,8 @@ PyMODINIT_FUNC PyInit__native(void) {
   int failed = 0;
   for (size_t i = 0; i < sizeof tables / sizeof tables[0] && !failed; ++i) failed = add_methods(module, tables[i]) < 0;
   if (failed ||
-      PyModule_AddIntConstant(module, "ABI_VERSION", CC_ABI_VERSION) < 0) {
+      PyModule_AddIntConstant(module, "ABI_VERSION", CC_ABI_VERSION) < 0 ||
+      PyModule_AddIntConstant(module, "LIBRARY_ABI_VERSION", cc_abi_version()) < 0) {
     Py_DECREF(module);
     return NULL;
   }

@@ -13,6 +13,11 @@
 
 #include "npz.h"
 
+/* what a file that is no zip gets told: what the core reads, and where another model goes */
+#define NPZ_EXPECTED                                                                                   \
+  "expected an .npz written by numpy.savez (other models, ONNX or your own: cc_contact_step_with's " \
+  "predictor callback, docs/integrate.md)"
+
 /* --------------------------------------------------------------------- errors */
 
 /* Copies s into dst (capacity cap) with control characters and non-ASCII bytes as '?', so the
@@ -59,7 +64,7 @@ static uint32_t crc32_of(const unsigned char *p, size_t n) {
 static void entry_label(char *dst, size_t cap, const entry *e) { sanitize(dst, cap, e->name, e->name_len); }
 
 static int find_eocd(const ctx *c, const unsigned char *buf, size_t size, size_t *at) {
-  if (size < 22) return ccz_fail(c, "is %zu bytes, too short for a zip; expected an .npz written by numpy.savez", size);
+  if (size < 22) return ccz_fail(c, "is %zu bytes, too short for a zip; " NPZ_EXPECTED, size);
   size_t lowest = size > 22 + 65535 ? size - 22 - 65535 : 0;
   for (size_t i = size - 22 + 1; i-- > lowest;) {
     if (u32(buf + i) == 0x06054b50u && i + 22 + u16(buf + i + 20) == size) {
@@ -67,7 +72,7 @@ static int find_eocd(const ctx *c, const unsigned char *buf, size_t size, size_t
       return CC_OK;
     }
   }
-  return ccz_fail(c, "no zip end-of-central-directory record; expected an .npz written by numpy.savez");
+  return ccz_fail(c, "no zip end-of-central-directory record; " NPZ_EXPECTED);
 }
 
 /* Fills a with the entries of the zip in buf (borrowing buf). */

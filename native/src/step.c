@@ -229,8 +229,16 @@ int cc_step_force_law_given(cc_step *s, const double *w_WB, const double *v_WB, 
   return status;
 }
 
-/* cc_predict on the asked rows only (packed), the answers put back in their rows */
-static int predict_asked(const cc_model *model, cc_step *s, size_t n_ask, size_t *bad_row) {
+/* The predictor on n rows: the shipped model's cc_predict, or the caller's function. */
+static int predict_rows(const cc_model *model, cc_predict_fn fn, void *user, size_t n, const double *p, const double *R,
+                        const double *sA, const double *sB, double *point, double *normal, size_t *bad) {
+  if (model != NULL) return cc_predict(model, n, p, R, sA, n, sB, n, point, normal, NULL, bad);
+  return fn(user, n, p, R, sA, sB, point, normal, bad);
+}
+
+/* the predictor on the asked rows only (packed), the answers put back in their rows */
+static int predict_asked(const cc_model *model, cc_predict_fn fn, void *user, cc_step *s, size_t n_ask,
+                         size_t *bad_row) {
   size_t n = 0;
   for (size_t r = 0; r < s->k; ++r) {
     if (!s->ask[r]) continue;
@@ -242,7 +250,7 @@ static int predict_asked(const cc_model *model, cc_step *s, size_t n_ask, size_t
   }
   if (n == 0 || n != n_ask) return n == n_ask ? CC_OK : CC_BAD_ARGUMENT;
   size_t bad = 0;
-  int status = cc_predict(model, n, s->q_p, s->q_R, s->q_sA, n, s->q_sB, n, s->q_pt, s->q_nm, NULL, &bad);
+  int status = predict_rows(model, fn, user, n, s->q_p, s->q_R, s->q_sA, s->q_sB, s->q_pt, s->q_nm, &bad);
   if (status != CC_OK) {
     if (bad_row != NULL) *bad_row = bad < n ? s->q_row[bad] : bad;
     return status;
@@ -268,10 +276,11 @@ static double now_s(void) {
 }
 #endif
 
-int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB, const double *R_WB,
-                          const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row,
-                          double seconds[3]) {
-  if (model == NULL || s == NULL || (s->m > 0 && (w_WB == NULL || v_WB == NULL || wrench_W == NULL)))
+/* The fused step with the predictor either the model (fn NULL) or fn (model NULL). */
+static int fused_step(const cc_model *model, cc_predict_fn fn, void *user, cc_step *s, const double *p_WB,
+                      const double *R_WB, const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row,
+                      double seconds[3]) {
+  if ((model == NULL) == (fn == NULL) || s == NULL || (s->m > 0 && (w_WB == NULL || v_WB == NULL || wrench_W == NULL)))
     return CC_BAD_ARGUMENT;
   double t0 = seconds != NULL ? now_s() : 0.0, t1 = t0, t2 = t0;
   size_t k;
@@ -283,10 +292,11 @@ int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB,
   if (seconds != NULL) t1 = now_s();
   if (k > 0) {
     if (n_ask == k) {
-      status = cc_predict(model, k, s->p_AB, s->R_AB, s->size_A, k, s->size_B, k, s->point_A, s->normal_A, NULL,
-                          bad_row);
+      size_t bad = k;
+      status = predict_rows(model, fn, user, k, s->p_AB, s->R_AB, s->size_A, s->size_B, s->point_A, s->normal_A, &bad);
+      if (bad_row != NULL) *bad_row = bad;
     } else {
-      status = predict_asked(model, s, n_ask, bad_row);
+      status = predict_asked(model, fn, user, s, n_ask, bad_row);
     }
     if (status != CC_OK) {
       memset(wrench_W, 0, 6 * s->m * sizeof(double));
@@ -305,9 +315,22 @@ int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB,
   return status;
 }
 
+int cc_contact_step_timed(const cc_model *model, cc_step *s, const double *p_WB, const double *R_WB,
+                          const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row,
+                          double seconds[3]) {
+  if (model == NULL) return CC_BAD_ARGUMENT;
+  return fused_step(model, NULL, NULL, s, p_WB, R_WB, w_WB, v_WB, wrench_W, bad_row, seconds);
+}
+
 int cc_contact_step(const cc_model *model, cc_step *s, const double *p_WB, const double *R_WB, const double *w_WB,
                     const double *v_WB, double *wrench_W, size_t *bad_row) {
   return cc_contact_step_timed(model, s, p_WB, R_WB, w_WB, v_WB, wrench_W, bad_row, NULL);
+}
+
+int cc_contact_step_with(cc_predict_fn predict, void *user, cc_step *s, const double *p_WB, const double *R_WB,
+                         const double *w_WB, const double *v_WB, double *wrench_W, size_t *bad_row) {
+  if (predict == NULL) return CC_BAD_ARGUMENT;
+  return fused_step(NULL, predict, user, s, p_WB, R_WB, w_WB, v_WB, wrench_W, bad_row, NULL);
 }
 
 /* ------------------------------------------------------------------ views, held state */

@@ -89,3 +89,18 @@ def test_the_defaults_are_the_testbeds(build, tmp_path):
     assert got.keys() >= want.keys()
     assert {k: got[k] for k in want} == pytest.approx(want, rel=1e-15, abs=0)
     assert len(set(FITTED_KAPPA.values())) == 1  # one kappa for every shipped type pair: the default's
+
+
+def test_the_python_binding_checks_the_abi():
+    """The extension carries its header's and its core's ABI (cc_abi_version()); the binding refuses one
+    built from other sources (a stale build) instead of calling into it, and says what to run."""
+    import types
+
+    from learned_contact import _native
+    from learned_contact.compiled.kernels import ABI_VERSION, stale
+
+    assert _native.ABI_VERSION == _native.LIBRARY_ABI_VERSION == ABI_VERSION
+    assert stale(_native) is None and stale(None) is None
+    old = types.SimpleNamespace(ABI_VERSION=2)  # built before the library's ABI was exposed
+    assert "ABI 2, this code needs 3" in stale(old) and "pip install -e ." in stale(old)
+    assert stale(types.SimpleNamespace(ABI_VERSION=3, LIBRARY_ABI_VERSION=2)) is not None

@@ -34,6 +34,7 @@ import time
 
 import numpy as np
 
+from learned_contact.compiled.kernels import STALE
 from learned_contact.interface import raise_for_status
 from testbed.errors import TestbedError
 
@@ -45,6 +46,8 @@ try:  # the compiled core (setup.py builds it); its absence is reported when a s
     from learned_contact import _native
     if not hasattr(_native, "step_new"):
         raise ImportError("learned_contact._native has no contact step (an old build)")
+    if STALE is not None:  # built from other sources: its ABI is not the one these calls were written for
+        raise ImportError(STALE)
     _WHY = ""
 except ImportError as error:  # pragma: no cover - exercised only without a build
     _native, _WHY = None, str(error)
