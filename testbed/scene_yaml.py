@@ -160,6 +160,8 @@ def apply_override(data: dict, parts: list, value, source) -> None:
     field = ""
     for depth, part in enumerate(parts):
         field = _join(field, part)
+        if isinstance(node, _Tagged) and isinstance(node.value, dict):  # a tagged mapping: !Rpy {deg: [...]}
+            node = node.value
         if isinstance(part, int):
             if not isinstance(node, list) or not -len(node) <= part < len(node):
                 size = f"{len(node)} entries" if isinstance(node, list) else "not a list"
@@ -172,7 +174,14 @@ def apply_override(data: dict, parts: list, value, source) -> None:
             else:
                 node[part] = value
         else:
-            if isinstance(part, str) and node.get(part) is None:
+            if part == "rotation" and parts[depth + 1] == "deg":  # a rotation set by its roll-pitch-yaw angles
+                now = node.get(part)
+                if now is None or now == {}:  # none, or the identity: roll-pitch-yaw from zero
+                    node[part] = _Tagged("!Rpy", {"deg": [0.0, 0.0, 0.0]})
+                elif not (isinstance(now, _Tagged) and now.tag == "!Rpy"):
+                    raise ScenarioError(source, _join(field, "deg"), "--set: the rotation is not given as !Rpy {deg: [...]}; "
+                                        "set the whole rotation instead")
+            elif isinstance(part, str) and node.get(part) is None:
                 node[part] = {}
             node = node[part]
 

@@ -142,3 +142,23 @@ def test_a_long_list_of_names_is_cut_and_counted():
     assert text.startswith("did you mean 'blk_r1_b1_t1'") and f"({200 - LISTED} more, 200 in all)" in text
     assert len(text) < 300  # was 2,952 characters for a 200-container yard
     assert one_of("zzz", ["a", "b"]) == "expected one of: a, b"
+
+
+def test_set_reaches_a_rotations_angles():
+    """--set containers[i].X_WC.rotation.deg[k]: into a scene's !Rpy rotation, or from no rotation (the
+    identity); a rotation given otherwise is refused naming the field (it was 'the parent is not a mapping')."""
+    import numpy as np
+
+    from testbed.errors import ScenarioError
+    from testbed.scenario import load_scenario
+
+    def rpy(scenario, i):
+        return np.degrees(scenario.containers[i].pose().rotation().ToRollPitchYaw().vector())
+
+    assert np.allclose(rpy(load_scenario("corner_drop", overrides=["containers[3].X_WC.rotation.deg[1]=7.5"]), 3),
+                       [6.0, 7.5, 3.0], atol=1e-6)
+    assert np.allclose(rpy(load_scenario("two_stack", overrides=["containers[1].X_WC.rotation.deg[2]=30"]), 1),
+                       [0.0, 0.0, 30.0], atol=1e-6)
+    with pytest.raises(ScenarioError, match=r"containers\[1\]\.X_WC\.rotation\.deg: --set: the rotation is not given"):
+        load_scenario("two_stack", overrides=["containers[1].X_WC.rotation=!AngleAxis {angle_deg: 10, axis: [0, 0, 1]}",
+                                              "containers[1].X_WC.rotation.deg[2]=30"])
