@@ -16,8 +16,8 @@ from __future__ import annotations
 import datetime
 import importlib
 
-COMMANDS = ("scenes", "run", "run_all", "view", "validate", "study", "train", "compare", "calibrate", "bench",
-            "export_onnx")
+COMMANDS = ("scenes", "run", "run_all", "view", "validate", "study", "train", "compare", "campaign", "calibrate",
+            "bench", "export_onnx")
 
 
 def load(module_name: str):
