@@ -66,16 +66,23 @@ class Family:
     def sample(self, n: int, seed: int) -> list[dict]:
         """n samples: {"index", "values": {path: value}, "overrides": [...]}, the first n points of a
         scrambled Halton sequence in as many dimensions as varied fields (seeded)."""
-        from scipy.stats import qmc
+        return [as_sample(i, values) for i, values in enumerate(halton_values(self.varied, n, seed))]
 
-        u = qmc.Halton(d=len(self.varied), scramble=True, seed=seed).random(n) if n else np.zeros((0, len(self.varied)))
-        out = []
-        for i, row in enumerate(u):
-            values = {v.path: v.value(float(x)) for v, x in zip(self.varied, row)}
-            out.append({"index": i, "values": values,
-                        "overrides": [f"{path}={yaml.dump(value, default_flow_style=True).strip().removesuffix('...').strip()}"
-                                      for path, value in values.items()]})
-        return out
+
+def halton_values(varied, n: int, seed: int) -> list[dict]:
+    """The first n points of a scrambled Halton sequence (seeded) through each field's inverse CDF:
+    [{path: value}, ...] (a campaign's samples; a worst-case search's first generation)."""
+    from scipy.stats import qmc
+
+    u = qmc.Halton(d=len(varied), scramble=True, seed=seed).random(n) if n else np.zeros((0, len(varied)))
+    return [{v.path: v.value(float(x)) for v, x in zip(varied, row)} for row in u]
+
+
+def as_sample(index: int, values: dict, **extra) -> dict:
+    """A sample: {"index", "values": {path: value}, "overrides": the --set overrides that draw them, **extra}."""
+    overrides = [f"{path}={yaml.dump(value, default_flow_style=True).strip().removesuffix('...').strip()}"
+                 for path, value in values.items()]
+    return {"index": index, "values": values, "overrides": overrides, **extra}
 
 
 def _fail(source, field: str, problem: str):
