@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 
 NAME = "compare"
 HELP = ("run a scene with Drake's contact and with the learned model in the loop, judge it by the closed-loop "
-        "gates; write compare.json (exit 3 if a gate fails)")
+        "gates; write compare.json and report.html (exit 3 if a gate fails)")
 PREDICTOR_FIELD = "effects.learned_dynamics.predictor"
 
 
@@ -108,9 +108,11 @@ class ComparePlan:
                    contacts=chosen is not None and not chosen.gated, replay=not args.no_replay)
 
     def options(self) -> dict:
-        """compare_candidates' keywords of this plan (its `judge` comes from the command)."""
+        """compare_candidates' keywords of this plan (its `judge` comes from the command; the report,
+        report.html and report.md, is written in every mode)."""
         return {"reference": self.reference, "duration": self.duration, "contacts": self.contacts,
-                "out_dir": self.out_dir, "replay": self.replay, "source": self.source, "in_scene": True}
+                "out_dir": self.out_dir, "replay": self.replay, "source": self.source, "in_scene": True,
+                "report": True}
 
 
 def _tag(engine_name: str, chosen, predictor: str, params: str | None) -> str:

@@ -1,10 +1,12 @@
-"""Files of a twin run: time series (.npz), divergence plot (PNG), ghost replay (HTML)."""
+"""Files of a twin run: time series (.npz), divergence plot (PNG, drawn by report_plots.py), ghost replay (HTML)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from testbed.compare.external_work import external_work, power_laws
+from testbed.compare.report_plots import divergence_figure
+from testbed.document import png
 from testbed.viz.camera import set_camera_on
 from testbed.viz.replay import finish_recording, with_caption
 from testbed.viz.server import start_meshcat
@@ -33,30 +35,13 @@ def write_series(path, runs: dict, under_test: str = "learned", scenario=None) -
     np.savez_compressed(path, **arrays)
 
 
-def plot_divergence(path, truth, learned, scene: str, predictor: str, label: str = "learned") -> None:
-    """Position error [mm] of each container and energy change [J] of both runs over time;
-    `label` names the run under test (title and legend: 'learned', 'MuJoCo')."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = len(learned.time)
-    err = np.linalg.norm(learned.p_WB - truth.p_WB[:n], axis=2) * 1e3
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for k, name in enumerate(learned.names):
-        ax1.plot(learned.time, err[:, k], label=name)
-    ax1.set_ylabel("position error [mm]")
-    ax1.set_title(f"{scene}: {label} ({predictor}) vs Drake")
-    ax1.legend(fontsize="small")
-    ax2.plot(truth.time, truth.energy - truth.energy[0], label="Drake")
-    ax2.plot(learned.time, learned.energy - learned.energy[0], label=label)
-    ax2.set_ylabel("E(t) - E(0) [J]")
-    ax2.set_xlabel("time [s]")
-    ax2.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+def plot_divergence(path, series, under: str, title: str, label: str = "learned") -> None:
+    """divergence.png: the run under test's position error over time (its worst containers, the
+    median and the max over all) and the energy raw and net of the external actors' work, of it
+    and of Drake's (report_plots.divergence_figure); series: trajectories.npz's arrays, under: the
+    run under test's prefix there, label: its name in the legends ('learned', 'MuJoCo')."""
+    with open(path, "wb") as f:
+        f.write(png(divergence_figure(series, under, title, label=label), dpi=90))
 
 
 def write_ghost_replay(path, scenario, truth, learned, frame_period: float = 0.02, label: str = "learned") -> None:

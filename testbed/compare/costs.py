@@ -19,6 +19,10 @@ AdvanceTo calls whose wall time the run reports. The parts [s]:
 
 All are >= 0 and sum to wall_s (drake_step_s is the remainder, so rounding of the
 timers is all it can absorb). Per-step figures divide by `steps` (the plant steps run).
+
+real_time_factor and us_per_step turn a run's wall time per simulated second (compare.json's
+wall_per_sim_s_learned, wall_per_sim_s_truth) into the figures the report and the printed
+lines show: one measurement, two readings.
 """
 
 from __future__ import annotations
@@ -51,3 +55,15 @@ def breakdown_line(cost: dict | None) -> str | None:
         return None
     parts = [p for p in PARTS if p != "recording" or cost.get("recording_s", 0) > 0]
     return ", ".join(f"{LABELS[p]} {cost[f'{p}_fraction']:.0%} ({cost[f'{p}_us_per_step']:.0f} us/step)" for p in parts)
+
+
+def real_time_factor(wall_per_sim_s: float) -> float:
+    """Simulated time per wall time (compare.json's wall_per_sim_s of a run, inverted: > 1 runs
+    faster than real time); inf for a run that took no measurable wall time."""
+    return 1.0 / wall_per_sim_s if wall_per_sim_s > 0 else float("inf")
+
+
+def us_per_step(wall_per_sim_s: float, time_step_s: float) -> float:
+    """[us] the wall time of one plant step, from compare.json's wall_per_sim_s [s per simulated
+    s] and time_step_s [s]: the same measurement as the real-time factor, per step."""
+    return 1e6 * wall_per_sim_s * time_step_s

@@ -31,6 +31,7 @@ import math
 
 import numpy as np
 
+from testbed.gates.closed_loop import energy_created
 from testbed.geometry.rotations import rotation_from_quaternion
 from testbed.scenario import checked_effects
 
@@ -91,6 +92,23 @@ def external_work(laws, traj) -> np.ndarray | None:
         work += cut_trapezoid(time, power, stop)
     work[bad:] = np.nan
     return work
+
+
+def energy_figures(laws, truth, traj, truth_work=None) -> dict:
+    """compare.json's energy figures of the run `traj` against `truth` (Trajectories on the same
+    record times), with the external actors' `laws` (power_laws; None: not evaluable) and the
+    truth's work `truth_work` (external_work(laws, truth), computed once for every candidate):
+    energy_created_J, the energy gate's figure (testbed.gates.closed_loop.energy_created: the
+    largest C(t) = E(t) - E(0) - W(t) beyond the truth's C(t) where positive), whatever engine ran;
+    external_work_counted (whether W came from the records); external_work_max_J [J], the largest
+    |W(t)| of the run (0 without an actor; None where not counted). The raw E(t) - E(0) beside it
+    is compare_figures' energy_gain_max_J."""
+    n = len(traj.time)
+    work = None if laws is None or truth_work is None else external_work(laws, traj)
+    pair = None if work is None else (work, truth_work[:n])
+    largest = None if work is None else float(np.max(np.abs(np.nan_to_num(work, nan=np.inf)), initial=0.0))
+    return {"energy_created_J": energy_created(traj.energy, np.asarray(truth.energy)[:n], pair),
+            "external_work_counted": pair is not None, "external_work_max_J": largest}
 
 
 def cut_trapezoid(time, power, stop: float) -> np.ndarray:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from testbed.compare.costs import real_time_factor
+from testbed.gates import format_value
 from testbed.geometry.rotations import angle_between_quaternions_deg, rotation_from_quaternion
 
 # The learned run diverged (blew up) when it failed, went non-finite, sank one container
@@ -128,6 +130,29 @@ def compare_figures(truth, learned, containers, predictor) -> dict:
     return figures
 
 
+def joules(value) -> str:
+    """An energy [J] as the gates write theirs (testbed.gates.format_value: 4 significant digits),
+    so that one figure reads the same in the printed lines, the table, the gates and the report;
+    '-' for None (not measured)."""
+    return "-" if value is None else format_value(float(value), "J")
+
+
+def energy_text(f: dict) -> str:
+    """'energy gain max 4201 J raw, 0 J net of external work (...)' of compare.json figures `f`:
+    the raw E(t) - E(0) and, where measured (external_work.energy_figures), the energy net of the
+    external actors' work beyond the truth's, the energy gate's figure."""
+    raw = f"energy gain max {joules(f['energy_gain_max_J'])} J raw"
+    if f.get("energy_created_J") is None:
+        return raw
+    if not f.get("external_work_counted"):
+        work = "the records cannot give the external work: W = 0"
+    elif f.get("external_work_max_J"):
+        work = f"external work max |W| {joules(f['external_work_max_J'])} J"
+    else:
+        work = "no external actor"
+    return f"{raw}, {joules(f['energy_created_J'])} J net of external work (the energy gate's figure; {work})"
+
+
 def error_lines(f: dict, engine_label: str, engine_wall: float) -> list[str]:
     """The error and speed lines `testbed compare` prints for figures `f` (compare.json
     keys) of the run under test, labelled `engine_label`, costing `engine_wall` [s per s]."""
@@ -135,7 +160,8 @@ def error_lines(f: dict, engine_label: str, engine_wall: float) -> list[str]:
     return [
         f"  position error max {f['position_error_max_m'] * 1e3:.3f} mm (final {f['final_position_error_max_m'] * 1e3:.3f} mm, "
         f"angle {f['final_angle_error_max_deg']:.4f} deg); max penetration {f['max_penetration_m'] * 1e3:.3f} mm; "
-        f"energy gain max {f['energy_gain_max_J']:.3g} J",
-        f"  wall per simulated second: {engine_label} {engine_wall:.4f} s, Drake hydroelastic "
+        f"{energy_text(f)}",
+        f"  wall per simulated second: {engine_label} {engine_wall:.4f} s (real-time factor "
+        f"{real_time_factor(engine_wall):.3g}x over t = 0-{f['simulated_s_learned']:g} s), Drake hydroelastic "
         f"{f['wall_per_sim_s_truth']:.3f} s{point}",
     ]

@@ -4,10 +4,13 @@ it prints of compare.json (testbed/commands/compare.py keeps its options and exi
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.compare.candidates import Candidate, all_candidates, engine_candidates, learned_loop
-from testbed.compare.costs import breakdown_line
-from testbed.compare.metrics import error_lines
+from testbed.compare.costs import breakdown_line, real_time_factor
+from testbed.compare.metrics import error_lines, joules
+from testbed.compare.report import HTML as REPORT
 from testbed.compare.run_candidates import NO_REFERENCE
 from testbed.compare.verdict import NOT_JUDGED, headline, verdict_lines
 from testbed.effects.learned_dynamics.force_law import KAPPA_MODULUS
@@ -50,18 +53,23 @@ def figure_lines(f: dict, out=None, *, head: str = "", not_judged: bool = False)
     the position error "score" when `not_judged`: 0 pair-steps), the table of every candidate
     (--engine all), the output directory `out`; the verdict line itself where no gate judges."""
     if f["verdict"] == NO_REFERENCE:
-        return [*_timing_lines(f), *([f"  output: {out}"] if out is not None else []),
+        return [*_timing_lines(f), *(_output_lines(out) if out is not None else []),
                 f"verdict: {NO_REFERENCE} (exit status {f['exit_status']})"]
     primary = candidates()[f["engine"]]
     lines = _learned_lines(f, head, not_judged) if primary.gated else format_engine_figures(f, primary) + truth_lines(f)
     if len(f["candidates"]) > 2:
         lines += format_table(f["table"])
     if out is not None:
-        lines.append(f"  output: {out}")
+        lines += _output_lines(out)
     if f["verdict"] is None:
         lines.append(f"verdict: none (the closed-loop gates judge a learned model in the loop; `--engine all` puts "
                      f"{primary.label} beside it against the same Drake run)")
     return lines
+
+
+def _output_lines(out) -> list[str]:
+    """The output directory and its report (testbed/compare/report.py)."""
+    return [f"  output: {out}", f"  report: {Path(out) / REPORT}"]
 
 
 def _timing_lines(f: dict) -> list[str]:
@@ -70,7 +78,7 @@ def _timing_lines(f: dict) -> list[str]:
              f"containers at a hydroelastic modulus of {f['hydroelastic_modulus_Pa']:.0e} Pa"]
     for label, c in f["candidates"].items():
         ended = f"failed at t = {c['simulated_s']:g} s: {c['error'][:90]}" if c["error"] else "ran"
-        factor = 1.0 / c["wall_per_sim_s"] if c["wall_per_sim_s"] > 0 else float("inf")
+        factor = real_time_factor(c["wall_per_sim_s"])
         lines.append(f"  {label}: {ended} ({c['simulated_s']:g} of {f['duration_s']:g} s), real-time factor {factor:.2f}x "
                      f"(wall per simulated second {c['wall_per_sim_s']:.4f} s), measured over the whole run, "
                      f"t = 0-{c['simulated_s']:g} s")
@@ -136,15 +144,17 @@ def format_engine_figures(f: dict, e) -> list[str]:
 def format_table(table: dict) -> list[str]:
     """The table `testbed compare --engine all` prints (compare.json `table`)."""
     head = ("model", "ran [s]", "pos err max [mm]", "final pos [mm]", "final angle [deg]", "max pen [mm]",
-            "energy gain [J]", "wall/sim s [s]", "x vs hydroelastic", "gates")
+            "energy gain raw [J]", "energy net [J]", "wall/sim s [s]", "x vs hydroelastic", "gates")
     body = [(r["model"] + (" DIVERGED" if r["diverged"] else ""), f"{r['simulated_s']:g}",
              f"{r['position_error_max_m'] * 1e3:.3f}", f"{r['final_position_error_max_m'] * 1e3:.3f}",
              f"{r['final_angle_error_max_deg']:.4f}", f"{r['max_penetration_m'] * 1e3:.3f}",
-             f"{r['energy_gain_max_J']:.3g}", f"{r['wall_per_sim_s']:.4f}", f"{r['speedup_vs_truth']:.2f}",
+             joules(r["energy_gain_max_J"]), joules(r.get("energy_created_J")), f"{r['wall_per_sim_s']:.4f}",
+             f"{r['speedup_vs_truth']:.2f}",
              r["verdict"] or "-") for r in table["rows"]]
     widths = [max(len(x) for x in col) for col in zip(head, *body)]
     lines = [f"  against one reference: {table['reference']}, wall {table['wall_per_sim_s_truth']:.3f} s per "
-             "simulated s; penetration by separating-axis depth for every row; gates: the closed-loop gates' "
+             "simulated s; penetration by separating-axis depth for every row; energy net: less the external "
+             "actors' work and the truth's own creation (the energy gate's figure); gates: the closed-loop gates' "
              "verdict of each learned row"]
     lines += ["  " + "  ".join(x.ljust(w) for x, w in zip(row, widths)).rstrip() for row in (head, *body)]
     return lines

@@ -36,8 +36,10 @@ from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.builder import build_scene
 from testbed.compare import artifacts, costs
 from testbed.compare.contact_figures import SatDepth, contact_figures, max_penetration
+from testbed.compare.external_work import energy_figures, external_work, power_laws
 from testbed.compare.in_scene import in_scene_figures
 from testbed.compare.metrics import compare_figures
+from testbed.compare.report import layout_of, write_report
 from testbed.errors import TestbedError
 from testbed.records import atomic_directory, steps_per_record, write_json
 from testbed.scenario import Scenario, load_scenario, resolve_scene_path, validate_scenario
@@ -137,7 +139,8 @@ def check_candidates(scenes: RunScenes, candidates, source="<scenario>") -> None
 
 def compare_candidates(scenario, candidates, *, reference: str | None = "truth", duration: float | None = None,
                        record_every: int | None = None, contacts: bool = False, out_dir=None, replay: bool = False,
-                       source="<scenario>", retime_reference: bool = True, judge=None, in_scene: bool = False) -> dict:
+                       source="<scenario>", retime_reference: bool = True, judge=None, in_scene: bool = False,
+                       report: bool = False) -> dict:
     """Runs the reference (None: none) once, then each of `candidates` (Candidate) from the same
     initial state of `scenario` (a Scenario: at its modulus per run_scenes) for `duration` [s]
     (None: the scene's), recorded every `record_every` plant steps (None: every 10 ms); with
@@ -157,6 +160,8 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
     run of the scene as the caller gave it, not at the comparison's modulus (testbed.compare.in_scene:
     the bench's in-scene figures, the same run the bench makes of that scene); its in-scene gates
     join the verdict (`testbed compare` sets it; validate's case kinds judge in-scene in their own case).
+    report: out_dir also gets report.html and report.md (testbed/compare/report.py) with the PNGs they
+    show (`testbed compare` sets it).
     Raises ScenarioError / UnsupportedSceneError before anything runs or is written."""
     if not candidates:
         raise ValueError("compare_candidates: no candidates")
@@ -190,11 +195,15 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
         figures = {**common, "primary": primary.label, "verdict": NO_REFERENCE, "exit_status": 0,
                    "candidates": {c.label: timing_figures(c, runs[c.label]) for c in candidates}}
         if out_dir is not None:
-            _write_unjudged(out_dir, figures, runs)
+            _write_unjudged(out_dir, figures, runs, report)
         return figures
     point = next((runs[c.label] for c in candidates if c.engine == "drake" and c.params == "point"), None)
     per = {c.label: candidate_figures(c, runs[c.label], truth, rows, point, scenario.containers, common)
            for c in candidates}
+    laws = power_laws(scenario)  # the external actors' work: the energy net of it, for every candidate
+    truth_work = None if laws is None else external_work(laws, truth)
+    for c in candidates:
+        per[c.label].update(energy_figures(laws, truth, runs[c.label].trajectory, truth_work))
     with (atomic_directory(out_dir) if out_dir is not None else tempfile.TemporaryDirectory(prefix="compare-")) as tmp:
         tmp = Path(tmp)
         asked: dict = {}  # predictor spec -> its in-scene figures
@@ -211,7 +220,7 @@ def compare_candidates(scenario, candidates, *, reference: str | None = "truth",
         if "verdict" not in figures:  # no closed-loop verdict: nothing decides the exit status
             figures.update(verdict=None, exit_status=0)
         if out_dir is not None:
-            _write(tmp, scenario, figures, truth, runs, candidates, primary, replay)
+            _write(tmp, scenario, figures, truth, runs, candidates, primary, replay, report)
     if out_dir is not None:
         figures["out_dir"] = str(Path(out_dir))
     return figures
@@ -255,9 +264,11 @@ def timing_figures(candidate, run) -> dict:
 
 def table(per: dict, common: dict) -> dict:
     """compare.json's `table`: every candidate against the one reference, a row each:
-    {'model': label, TABLE_KEYS (simulated_s_learned as 'simulated_s'), 'wall_per_sim_s',
-    'speedup_vs_truth', 'verdict' (None where not judged)}."""
+    {'model': label, TABLE_KEYS (simulated_s_learned as 'simulated_s'), 'energy_created_J' and
+    'external_work_max_J' (the energy net of the external actors' work: external_work.energy_figures),
+    'wall_per_sim_s', 'speedup_vs_truth', 'verdict' (None where not judged)}."""
     rows = [{"model": label, **{k.replace("_learned", ""): f[k] for k in TABLE_KEYS},
+             "energy_created_J": f.get("energy_created_J"), "external_work_max_J": f.get("external_work_max_J"),
              "wall_per_sim_s": f["wall_per_sim_s_learned"], "speedup_vs_truth": f["speedup_vs_truth"],
              "verdict": f.get("verdict")} for label, f in per.items()]
     return {"reference": f"Drake hydroelastic at {common['hydroelastic_modulus_Pa']:.0e} Pa (one run)",
@@ -295,7 +306,8 @@ def series_keys(candidates) -> dict:
     return out
 
 
-def _write(tmp: Path, scenario, figures: dict, truth, runs: dict, candidates, primary, replay: bool) -> None:
+def _write(tmp: Path, scenario, figures: dict, truth, runs: dict, candidates, primary, replay: bool,
+           report: bool = False) -> None:
     keys = series_keys(candidates)
     series = {"truth": truth, **{keys[c.label]: runs[c.label].trajectory for c in candidates}}
     artifacts.write_series(tmp / "trajectories.npz", series, under_test=keys[primary.label], scenario=scenario)
@@ -303,19 +315,27 @@ def _write(tmp: Path, scenario, figures: dict, truth, runs: dict, candidates, pr
     what = (f"{figures['predictor']}" if primary.judged and "predictor" in figures else
             f"{primary.run_params} contact parameters")
     label = "learned" if primary.gated else primary.spec.label
-    artifacts.plot_divergence(tmp / "divergence.png", truth, under, scenario.name, what, label=label)
     if replay:
         artifacts.write_ghost_replay(tmp / "replay.html", scenario, truth, under,
                                      label="learned" if primary.gated else primary.engine)
     for c in candidates:
         for name, text in runs[c.label].files.items():
             (tmp / name).write_text(text)
+    with np.load(tmp / "trajectories.npz") as d:  # the plots read the records as written
+        arrays = {k: d[k] for k in d.files}
+    title = f"{scenario.name}: {label} ({what}) vs Drake"
+    if report:  # last but compare.json: it lists the run's files
+        write_report(tmp, figures, arrays, under=keys[primary.label], label=label, title=title,
+                     layout=layout_of(scenario))
+    else:
+        artifacts.plot_divergence(tmp / "divergence.png", arrays, keys[primary.label], title, label=label)
     write_json(tmp / "compare.json", figures)
 
 
-def _write_unjudged(out_dir, figures: dict, runs: dict) -> None:
+def _write_unjudged(out_dir, figures: dict, runs: dict, report: bool = False) -> None:
     """--no-truth's files: compare.json and every candidate's series (write_series' keys, per
-    candidate slug) in trajectories.npz."""
+    candidate slug) in trajectories.npz; with `report`, report.html and report.md (no plots:
+    there is no truth to be off from)."""
     with atomic_directory(out_dir) as tmp:
         arrays = {}
         names = next((r.trajectory.names for r in runs.values() if len(r.trajectory.names)), ())
@@ -326,4 +346,6 @@ def _write_unjudged(out_dir, figures: dict, runs: dict) -> None:
                            f"{k}_energy": t.energy})
         np.savez_compressed(Path(tmp) / "trajectories.npz", **arrays)
         write_json(Path(tmp) / "compare.json", figures)
+        if report:
+            write_report(Path(tmp), figures)
     figures["out_dir"] = str(Path(out_dir))

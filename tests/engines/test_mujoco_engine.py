@@ -284,7 +284,8 @@ def test_compare_engine_mujoco_writes_the_learned_compare_keys(tmp_path):
         assert math.isfinite(figures[key])
     assert figures["diverged"] is False
     assert figures["position_error_max_m"] < 1e-3  # 0.05 s of a resting stack: sub-mm apart
-    assert {"trajectories.npz", "divergence.png", "mujoco.xml", "compare.json"} == {p.name for p in out.iterdir()}
+    assert {"trajectories.npz", "divergence.png", "error_map.png", "mujoco.xml", "compare.json", "report.html",
+            "report.md"} == {p.name for p in out.iterdir()}
 
 
 def test_generic_box_and_ground_surface_translate():
