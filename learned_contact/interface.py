@@ -76,11 +76,26 @@ def domain_error(depth: np.ndarray) -> PredictorDomainError:
         "(negative = separated); use outside='clip' for bounded answers")
 
 
-def size_error(name: str, bad, supported: np.ndarray) -> PredictorInputError:
+def size_error(name: str, bad, supported: np.ndarray, size_range=None) -> PredictorInputError:
     choices = "; ".join(str(tuple(float(v) for v in s)) for s in supported)
+    if size_range is not None:
+        lo, hi = np.asarray(size_range, dtype=float).reshape(2, 3)
+        span = " x ".join(f"{a:g}" if a == b else f"{a:g}-{b:g}" for a, b in zip(lo, hi))
+        return PredictorInputError(
+            f"{name} {tuple(float(v) for v in bad)} is not a supported container size: outside the supported size "
+            f"range; supported: any box of {span} m (length x width x height, full extents)")
     return PredictorInputError(
         f"{name} {tuple(float(v) for v in bad)} is not a supported container size; "
         f"supported (full extents [m]): {choices}")
+
+
+def in_size_range(size: np.ndarray, size_range) -> np.ndarray:
+    """(n,) bool: each size (n, 3) [m] lies inside size_range ((2, 3): lowest, highest full
+    extents [m]) within SIZE_TOLERANCE per axis; all False for size_range None."""
+    if size_range is None:
+        return np.zeros(len(size), dtype=bool)
+    lo, hi = np.asarray(size_range, dtype=float).reshape(2, 3)
+    return np.all((size >= lo - SIZE_TOLERANCE) & (size <= hi + SIZE_TOLERANCE), axis=1)
 
 
 def shape_error(p_AB, R_AB) -> PredictorInputError:
@@ -116,9 +131,10 @@ def check_size_shape(name: str, size, n: int) -> np.ndarray:
     return size
 
 
-def check_numpy(p_AB, R_AB, size_A, size_B, supported: np.ndarray):
-    """The numpy reference path's checks. Returns (p_AB (n, 3), R_AB (n, 3, 3),
-    size_A (n, 3), size_B (n, 3), single)."""
+def check_numpy(p_AB, R_AB, size_A, size_B, supported: np.ndarray, size_range=None):
+    """The numpy reference path's checks: a size is one of `supported` (k, 3) within
+    SIZE_TOLERANCE per axis, or lies inside `size_range` ((2, 3) [m], None: no range).
+    Returns (p_AB (n, 3), R_AB (n, 3, 3), size_A (n, 3), size_B (n, 3), single)."""
     p_AB, R_AB, single = check_poses(p_AB, R_AB)
     if not (np.all(np.isfinite(p_AB)) and np.all(np.isfinite(R_AB))):
         raise PredictorInputError(NOT_FINITE)
@@ -129,9 +145,10 @@ def check_numpy(p_AB, R_AB, size_A, size_B, supported: np.ndarray):
         if not np.all(np.isfinite(size)):
             raise PredictorInputError(f"{name} must be finite, (3,) or (n, 3); got {size.tolist()}")
         size = np.broadcast_to(size, p_AB.shape)
-        diff = np.abs(size[:, None, :] - supported[None]).max(axis=2)  # (n, k)
-        if np.any(diff.min(axis=1) > SIZE_TOLERANCE):
-            raise size_error(name, size[np.argmax(diff.min(axis=1))], supported)
+        diff = np.abs(size[:, None, :] - supported[None]).max(axis=2).min(axis=1)  # (n,)
+        diff[in_size_range(size, size_range)] = 0.0
+        if np.any(diff > SIZE_TOLERANCE):
+            raise size_error(name, size[np.argmax(diff)], supported, size_range)
         sizes.append(np.ascontiguousarray(size))
     return p_AB, R_AB, sizes[0], sizes[1], single
 
@@ -153,7 +170,7 @@ def check_rotations(R_AB) -> None:
         raise rotation_error(row, R_AB[row])
 
 
-def raise_for_status(status: int, row: int, p_AB, size_A, size_B, supported, R_AB=None) -> None:
+def raise_for_status(status: int, row: int, p_AB, size_A, size_B, supported, R_AB=None, size_range=None) -> None:
     """Turns a compiled kernel's status (learned_contact.compiled.STATUS_*) into the
     same errors the numpy path raises."""
     if status == 1:
@@ -164,4 +181,4 @@ def raise_for_status(status: int, row: int, p_AB, size_A, size_B, supported, R_A
     bad = size[row if len(size) > 1 else 0]
     if status in (4, 5):
         raise PredictorInputError(f"{name} must be finite, (3,) or (n, 3); got {bad.tolist()}")
-    raise size_error(name, bad, supported)
+    raise size_error(name, bad, supported, size_range)

@@ -9,7 +9,7 @@ Main entry points: `load_scenario`, `build_scene`, `simulate`, `run_scenario`.
 
 import importlib
 
-__version__ = "0.10.0"
+__version__ = "0.11.0"
 
 _EXPORTS = {
     "ModelError": "testbed.errors", "ScenarioError": "testbed.errors", "SimulationError": "testbed.errors",

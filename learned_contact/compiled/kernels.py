@@ -19,7 +19,7 @@ import importlib
 
 import numpy as np
 
-ABI_VERSION = 3  # CC_ABI_VERSION of the headers this binding's calls were written against
+ABI_VERSION = 4  # CC_ABI_VERSION of the headers this binding's calls were written against
 
 try:  # by name: `from learned_contact import _native` reads to import-linter as the package's __init__
     _native = importlib.import_module("learned_contact._native")
@@ -58,16 +58,18 @@ def mlp_spec(mlp) -> tuple:
             tuple(f(b).reshape(-1) for b in mlp.biases), ACTIVATION_CODES[mlp.activation])
 
 
-def native_model(kind: str, supported_sizes, mlp, expert=None, domain=None):
+def native_model(kind: str, supported_sizes, mlp, expert=None, domain=None, *, size_range=None):
     """The native core's Model of a predictor: kind "improved" or "paper", supported_sizes
     (k, 3) full extents [m], the main network and (improved only) the resting expert with
-    its gate's bounds (11 or 9 values; learned_contact.model.expert). The Model keeps the
+    its gate's bounds (11 or 9 values; learned_contact.model.expert); size_range (2, 3) [m] or
+    None: any box inside it answers too. The Model keeps the
     arrays it reads alive; build it once per predictor."""
     sizes = np.ascontiguousarray(supported_sizes, dtype=float).reshape(-1, 3)
+    ranged = {} if size_range is None else {"size_range": np.ascontiguousarray(size_range, dtype=float).reshape(2, 3)}
     if expert is None:
-        return _native.Model(KIND_CODES[kind], sizes, mlp_spec(mlp))
+        return _native.Model(KIND_CODES[kind], sizes, mlp_spec(mlp), **ranged)
     return _native.Model(KIND_CODES[kind], sizes, mlp_spec(mlp), mlp_spec(expert),
-                         np.ascontiguousarray(domain, dtype=float).reshape(-1))
+                         np.ascontiguousarray(domain, dtype=float).reshape(-1), **ranged)
 
 
 def native_predict(model, p, R, sA, sB, with_depth: bool = True):

@@ -55,7 +55,8 @@ import numpy as np
 
 from learned_contact.errors import DatasetError
 from learned_contact.interface import SIZE_TOLERANCE
-from testbed.bodies.containers import CONTAINER_TYPES
+from testbed.bodies.containers import CONTAINER_TYPES, container_type
+from testbed.errors import TestbedError
 from testbed.geometry.rotations import random_rotations, rotation_from_rpy
 
 DISTRIBUTIONS = ("stacking", "general", "resting", "resting_wide", "resting_level", "resting_wider",
@@ -102,8 +103,17 @@ class Proposals:
 
     def sizes(self) -> tuple[np.ndarray, np.ndarray]:
         """(size_A (n, 3), size_B (n, 3)) full extents [m]."""
-        table = np.array([CONTAINER_TYPES[t].size for t in self.types])
+        table = np.array([container_type(t).size for t in self.types])
         return table[self.type_a], table[self.type_b]
+
+
+def _known_type(code: str) -> bool:
+    """An ISO type of the catalogue or a generic box's code ("box:<l>,<w>,<h>")."""
+    try:
+        container_type(code)
+    except TestbedError:
+        return False
+    return True
 
 
 def _axis_aligned_rotations() -> np.ndarray:
@@ -153,14 +163,14 @@ def sample(distribution: str, n: int, seed: int, types=DEFAULT_TYPES, *, max_dep
     if n < 1:
         raise DatasetError(f"need n >= 1 samples, got {n}")
     types = tuple(types)
-    unknown = [t for t in types if t not in CONTAINER_TYPES]
+    unknown = [t for t in types if not _known_type(t)]
     if unknown:
         raise DatasetError(f"unknown container types {unknown}; expected some of: {', '.join(CONTAINER_TYPES)}")
     rng = np.random.default_rng([seed, DISTRIBUTIONS.index(distribution)])
     type_a = rng.integers(len(types), size=n)
     type_b = rng.integers(len(types), size=n)
     depth = rng.uniform(0.0, max_depth, size=n)
-    size_table = np.array([CONTAINER_TYPES[t].size for t in types])
+    size_table = np.array([container_type(t).size for t in types])
     half_a, half_b = 0.5 * size_table[type_a], 0.5 * size_table[type_b]
     if distribution == "stacking":
         rpy = np.empty((n, 3))

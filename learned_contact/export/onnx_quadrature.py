@@ -95,6 +95,11 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     u_A, v_A = g.op("Gather", g.i(NEXT), a), g.op("Gather", g.i(NEXT2), a)
     e_a, e_u, e_v = (g.onehot(k, 3, dtype=g.dt) for k in (a, u_A, v_A))  # rows of np.eye(3)
     face_level = g.vec_at(hA, a)  # (n, 1) A's face along normal_A
+    # each box's share of the overlap (quadrature.face_on_face: f_A, f_B, ratio_AB, ratio_BA), (n, 1)
+    H_A, H_B = g.rmin(hA, 1, keep=1), g.rmin(hB, 1, keep=1)
+    H_sum = g.add(H_A, H_B)
+    f_A, f_B = g.div(H_A, H_sum), g.div(H_B, H_sum)
+    ratio_AB, ratio_BA = g.div(H_A, H_B), g.div(H_B, H_A)
     top = g.mul(g.mul(sigma_A, face_level), e_a)
     cA = fan(top, g.mul(g.vec_at(hA, u_A), e_u), g.mul(g.vec_at(hA, v_A), e_v))
     b = transpose(g, R)  # rows: B's axes in A
@@ -126,20 +131,21 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     # by A's face plane
     poly, count = clip_halfspace(g, poly, count, g.reshape(g.op("Expand", nA4, shape16_3), [-1, 3]),
                                  g.reshape(g.op("Expand", g.unsq(face_level, [2]), shape16), [-1, 1]))
-    # by the 45 deg trims along the outer edges of B's face (edge j), then of A's face (edge i)
-    for e0, e1, centre, axis in ((cB, cB_next, centre_B, 1), (cA, cA_next, top, 2)):
+    # by the 45 deg trims along the outer edges of B's face (edge j), then of A's face (edge i), at
+    # each box's share of the overlap
+    for e0, e1, centre, axis, share in ((cB, cB_next, centre_B, 1, f_B), (cA, cA_next, top, 2, f_A)):
         w_in = _inward(g, e0, e1, g.unsq(centre, [1]), nA3)  # (n, 4, 3)
-        gvec = g.op("Neg", g.add(g.mul(g.f(0.5), nA3), w_in))
-        c = g.op("Neg", g.add(g.mul(g.f(0.5), face_level), dot(g, w_in, e0)))  # (n, 4)
+        gvec = g.op("Neg", g.add(g.mul(g.unsq(share, [2]), nA3), w_in))
+        c = g.op("Neg", g.add(g.mul(share, face_level), dot(g, w_in, e0)))  # (n, 4)
         nrm = g.reshape(g.op("Expand", g.unsq(gvec, [axis]), shape16_3), [-1, 3])
         lim = g.reshape(g.op("Expand", g.unsq(c, [axis]), shape16), [-1, 1])
         poly, count = clip_halfspace(g, poly, count, nrm, lim)
-    # the pressure (half the overlap below A's face, linear on each polygon) integrated exactly
+    # the pressure (E / (H_A + H_B) times the overlap below A's face, linear on each polygon) integrated exactly
     w, moment = pressure_moments(g, poly, count, g.reshape(g.op("Expand", g.unsq(face_level, [2]), shape16), [-1, 1]),
                                  g.reshape(g.op("Expand", nA4, shape16_3), [-1, 3]))
     w, moment = g.reshape(w, [-1, 16]), g.reshape(moment, [-1, 16, 3])
     n_Bout = g.mul(s_B, b_m)  # (n, 3) B's face normal, towards A
-    main_normal = g.sub(normal_A, n_Bout)
+    main_normal = g.sub(g.mul(ratio_BA, normal_A), n_Bout)
     main_normal = g.div(main_normal, norm(g, main_normal))
     # the slivers, (n, 4 i, 4 j) each: B's edges j clipped by A's triangles i, then A's edges i
     # clipped by B's triangles j
@@ -162,9 +168,10 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     hA_u3, hA_v3 = g.unsq(g.vec_at(hA, u_A), [2]), g.unsq(g.vec_at(hA, v_A), [2])  # (n, 1, 1)
     hB_u3, hB_v3 = g.unsq(g.vec_at(hB, u_B), [2]), g.unsq(g.vec_at(hB, v_B), [2])
     slivers = []
-    for e0, e1, sides, axis, inward_centre, local_depth, own in (
-            (edge_B0, edge_B1, (p0_A, out_A, flip_A), 2, centre_B, depth_of, "B"),
-            (edge_A0, edge_A1, (p0_B, out_B, flip_B), 1, top, depth_B_at, "A")):
+    for e0, e1, sides, axis, inward_centre, local_depth, own, share, ratio in (
+            (edge_B0, edge_B1, (p0_A, out_A, flip_A), 2, centre_B, depth_of, "B", f_B, ratio_AB),
+            (edge_A0, edge_A1, (p0_B, out_B, flip_B), 1, top, depth_B_at, "A", f_A, ratio_BA)):
+        share3, ratio3 = g.unsq(share, [2]), g.unsq(ratio, [2])  # (n, 1, 1)
         t0 = g.op("Expand", g.f(np.zeros((1, 1, 1))), shape16)
         t1 = g.op("Expand", g.f(np.ones((1, 1, 1))), shape16)
         planes = []
@@ -184,12 +191,13 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         span = g.sub(e1, e0)
         x0 = g.add(e0, g.mul(g.unsq(t0, [3]), span))
         x1 = g.add(e0, g.mul(g.unsq(t1, [3]), span))
-        h0 = g.mul(g.f(0.5), g.op("Max", local_depth(x0), zero))  # the strip's width at each end [m]
-        h1 = g.mul(g.f(0.5), g.op("Max", local_depth(x1), zero))
+        h0 = g.mul(share3, g.op("Max", local_depth(x0), zero))  # the strip's width at each end [m]
+        h1 = g.mul(share3, g.op("Max", local_depth(x1), zero))
         length = g.mul(norm(g, g.sub(x1, x0), keep=0), ok)
         hh = g.add(h0, h1)
         hsum3 = g.mul(g.f(3.0), g.where(g.op("Greater", hh, zero), hh, one))
-        area_s = g.mul(g.mul(g.mul(g.f(np.sqrt(2.0)), length), g.f(0.5)), hh)
+        rise = g.op("Sqrt", g.add(one, g.mul(ratio3, ratio3)))  # sqrt 2 for equal fields
+        area_s = g.mul(g.mul(g.mul(g.mul(rise, length), g.f(0.5)), hh), g.div(g.f(0.5), share3))
         h2 = g.add(g.add(g.mul(h0, h0), g.mul(h0, h1)), g.mul(h1, h1))
         y_bar = g.div(h2, hsum3)
         along_t = g.div(g.add(h0, g.mul(g.f(2.0), h1)), hsum3)
@@ -222,9 +230,9 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
         if own == "B":  # B's side face's inward normal lies in B's face plane
             w_B = g.sub(direction, g.mul(dot(g, direction, nB4, 1), nB4))
             w_B = g.div(w_B, g.op("Max", norm(g, w_B), g.f(1e-12)))
-            normal_s = g.add(nA4, w_B)
+            normal_s = g.add(nA4, g.mul(g.unsq(ratio3, [3]), w_B))
         else:
-            normal_s = g.sub(g.op("Neg", direction), nB4)
+            normal_s = g.sub(g.mul(g.op("Neg", g.unsq(ratio3, [3])), direction), nB4)
         slivers.append((g.reshape(weight_s, [-1, 16]), g.reshape(centre_s, [-1, 16, 3]),
                         g.reshape(g.div(normal_s, g.op("Max", norm(g, normal_s), g.f(1e-300))), [-1, 16, 3])))
     (wB, cB_s, nB_s), (wA, cA_s, nA_s) = slivers
@@ -240,7 +248,7 @@ def face_on_face(g: Graph, p, R, hA, hB, n_AB):
     depth_at = g.where(main_meet, g.sub(face_level, g.div(dot(g, moment_sum, normal_A, 1), g.where(main_meet, w_sum, one))),
                        zero)
     point = g.add(g.sub(point, g.mul(dot(g, point, normal_A, 1), normal_A)),
-                  g.mul(g.sub(face_level, g.mul(g.f(0.5), depth_at)), normal_A))
+                  g.mul(g.sub(face_level, g.mul(f_A, depth_at)), normal_A))
     sl = lambda sw, v: g.rsum(g.mul(g.unsq(sw, [2]), v), 1)  # noqa: E731
     direction = g.add(g.rsum(g.mul(g.unsq(w, [2]), g.unsq(main_normal, [1])), 1), g.add(sl(wB, nB_s), sl(wA, nA_s)))
     normal = g.div(direction, g.op("Max", norm(g, direction), g.f(1e-300)))

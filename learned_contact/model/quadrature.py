@@ -2,16 +2,17 @@
 (pure numpy, batched).
 
 What Drake computes for two compliant boxes pressed face to face (measured with
-SceneGraphInspector.maybe_get_hydroelastic_mesh on Drake 1.51 and 1.58, every ISO type we
-ship): each box's pressure field lives on a coarse medial-axis tetrahedral mesh of 18
+SceneGraphInspector.maybe_get_hydroelastic_mesh on Drake 1.51 and 1.58, 1CC, 1AA and 1AAA;
+the accuracy per size class, testbed/bench/size_classes.py, holds the model for every
+ISO 668 series 1 type and the boxes of improved.ANSWERED_SIZE_RANGE): each box's pressure field lives on a coarse medial-axis tetrahedral mesh of 18
 vertices and 44 tetrahedra, and every face of the box is the base of exactly four of
 them, a fan of four triangles around the face's centre. Within the thin overlap of a
 resting contact (well under a millimetre against tetrahedra a metre deep) each of those
 tetrahedra is a prism over its face triangle, with a pressure that grows linearly with
 depth below the face. The contact surface (kPolygon, what the plant and our labels use)
 is then one polygon per pair of triangles, A's triangle i clipped by B's triangle j and
-by the line where the overlap ends, with a pressure linear on each polygon (half the
-local overlap), plus thin strips along the faces' edges where a side face's tetrahedra
+by the line where the overlap ends, with a pressure linear on each polygon (E / (H_A + H_B) times the
+local overlap, H a box's half smallest extent, the depth of its tetrahedra), plus thin strips along the faces' edges where a side face's tetrahedra
 take over (the slivers).
 
 This module integrates that pressure exactly, as the labels do
@@ -94,13 +95,22 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
 
     p_AB (n, 3) [m], R_AB (n, 3, 3), h_A, h_B (n, 3) [m], n_AB (n, 3) unit A->B: picks the
     faces (`faces`). Returns (point (n, 3) [m] in A, on the equal-pressure surface;
-    normal (n, 3) unit A->B, the equal-pressure surface's (the bisector of the two faces'
-    normals: both fields rise as fast, every shipped container's tetrahedra being
-    a half width deep); weight (n,) [m^3] the integral of the pressure (half the overlap)
-    over the polygons and the slivers, 0 where the faces do not overlap)."""
+    normal (n, 3) unit A->B, the equal-pressure surface's (grad p_B - grad p_A: the bisector of
+    the two faces' normals where both fields rise as fast, i.e. both boxes' smallest extents are
+    equal, as for every pair of full-height ISO boxes, whose tetrahedra are a half width deep; a
+    half height's field rises twice as fast); weight (n,) [m^3] the integral of the pressure (in
+    units of E / (H_A + H_B): half the overlap for equal fields) over the polygons and the slivers,
+    0 where the faces do not overlap)."""
     n = len(p_AB)
     rows = np.arange(n)
     a, sigma_A, m, s_B = faces(p_AB, R_AB, h_A, h_B, n_AB)
+    # Each field rises at E / H with depth, H its box's half smallest extent (the tetrahedra's depth): the
+    # equal-pressure surface lies f_A of the local overlap below A's face and f_B above B's (one half each
+    # for two boxes of one smallest extent, every pair of full-height ISO boxes; a half height on a full
+    # height box: 0.35 / 0.65). ratio_AB = H_A / H_B tilts the normals (1.0 exactly for equal fields).
+    H_A, H_B = h_A.min(axis=1), h_B.min(axis=1)
+    f_A, f_B = H_A / (H_A + H_B), H_B / (H_A + H_B)
+    ratio_AB, ratio_BA = H_A / H_B, H_B / H_A
     u_A, v_A = (a + 1) % 3, (a + 2) % 3
     e = np.eye(3)
     top = (sigma_A * h_A[rows, a])[:, None] * e[a]  # (n, 3) A's face centre
@@ -134,20 +144,22 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         poly, count = clip_halfspace(poly, count, nrm, lim)
     face_level = h_A[rows, a]  # A's face along normal_A
     poly, count = clip_halfspace(poly, count, np.repeat(normal_A, 16, axis=0), np.repeat(face_level, 16))
-    # Near an outer edge of either face, within half the local overlap of it, the side
-    # face's tetrahedra take over (their 45 deg boundary runs from the edge to the medial
-    # axis): o(x) / 2 - inward distance from the edge <= 0 keeps the face's own part.
-    for e0, e1, centre in ((cB[:, None, :, :], cB[:, None, nxt, :], centre_B), (cA[:, :, None, :], cA[:, nxt, None, :], top)):
+    # Near an outer edge of either face, within its share of the local overlap (f_B for B's
+    # edges, f_A for A's) of it, the side face's tetrahedra take over (their 45 deg boundary runs
+    # from the edge to the medial axis): o(x) f - inward distance from the edge <= 0 keeps the
+    # face's own part.
+    for e0, e1, centre, f in ((cB[:, None, :, :], cB[:, None, nxt, :], centre_B, f_B),
+                              (cA[:, :, None, :], cA[:, nxt, None, :], top, f_A)):
         e0, e1 = np.broadcast_to(e0, (n, 4, 4, 3)), np.broadcast_to(e1, (n, 4, 4, 3))
         w_in = _inward(e0, e1, centre, normal_A)  # (n, 4, 4, 3)
-        g = -(0.5 * normal_A[:, None, None, :] + w_in)
-        c = -(0.5 * face_level[:, None, None] + np.einsum("nijk,nijk->nij", w_in, e0))
+        g = -(f[:, None, None, None] * normal_A[:, None, None, :] + w_in)
+        c = -(f[:, None, None] * face_level[:, None, None] + np.einsum("nijk,nijk->nij", w_in, e0))
         poly, count = clip_halfspace(poly, count, g.reshape(16 * n, 3), c.reshape(16 * n))
-    # the pressure at the equal-pressure plane is half the overlap deep, linear on each polygon
+    # the pressure (in units of E / (H_A + H_B): half the overlap for equal fields), linear on each polygon
     w, moment = _pressure_moments(poly, count, np.repeat(face_level, 16), np.repeat(normal_A, 16, axis=0))
     w, moment = w.reshape(n, 16), moment.reshape(n, 16, 3)
     n_Bout = s_B[:, None] * b[rows, m]  # (n, 3) B's face normal, towards A
-    main_normal = normal_A - n_Bout
+    main_normal = ratio_BA[:, None] * normal_A - n_Bout  # grad p_B - grad p_A, scaled by H_B / E
     main_normal /= np.linalg.norm(main_normal, axis=1, keepdims=True)
     # The slivers: along an edge of a face, inside the overlap, the other box's field
     # meets the field of the side face's tetrahedra (pressure rising from the side face):
@@ -176,9 +188,9 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         qu = np.take_along_axis(q, ax_u[:, None, None, None], axis=3)[..., 0]
         qv = np.take_along_axis(q, ax_v[:, None, None, None], axis=3)[..., 0]
         return np.minimum(h[rows, ax_u][:, None, None] - np.abs(qu), h[rows, ax_v][:, None, None] - np.abs(qv))
-    for e0, e1, clip_tri, inward_centre, local_depth, own in (
-            (edge_B0, edge_B1, tri[:, :, None], centre_B, depth_of, "B"),
-            (edge_A0, edge_A1, tri_B[:, None, :], top, depth_B_at, "A")):
+    for e0, e1, clip_tri, inward_centre, local_depth, own, f_own, ratio in (
+            (edge_B0, edge_B1, tri[:, :, None], centre_B, depth_of, "B", f_B, ratio_AB),
+            (edge_A0, edge_A1, tri_B[:, None, :], top, depth_B_at, "A", f_A, ratio_BA)):
         t0, t1 = np.zeros((n, 4, 4)), np.ones((n, 4, 4))
         planes = [(lambda x, k=k, tri=clip_tri: _side_value(tri, k, normal_A, x)) for k in range(3)]
         planes.append(lambda x, depth=local_depth: -depth(x))  # inside the overlap: depth >= 0
@@ -191,11 +203,15 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         ok = t1 > t0
         x0 = e0 + t0[..., None] * (e1 - e0)
         x1 = e0 + t1[..., None] * (e1 - e0)
-        h0 = 0.5 * np.maximum(local_depth(x0), 0.0)  # the strip's width at each end [m]
-        h1 = 0.5 * np.maximum(local_depth(x1), 0.0)
+        f3 = f_own[:, None, None]
+        h0 = f3 * np.maximum(local_depth(x0), 0.0)  # the strip's width at each end [m]: its box's share
+        h1 = f3 * np.maximum(local_depth(x1), 0.0)
         length = np.linalg.norm(x1 - x0, axis=-1) * ok
         hsum = np.where(h0 + h1 > 0.0, h0 + h1, 1.0)
-        area_s = np.sqrt(2.0) * length * 0.5 * (h0 + h1)
+        # the strip's surface rises the other box's share over its own (45 deg for equal fields), and the
+        # pressure across it, y / (2 f_own) in the polygons' units, is y for equal fields
+        rise = ratio[:, None, None]
+        area_s = np.sqrt(1.0 + rise * rise) * length * 0.5 * (h0 + h1) * (0.5 / f3)
         h2 = h0 * h0 + h0 * h1 + h1 * h1
         y_bar = h2 / (3.0 * hsum)  # strip centroid's distance from the edge
         along = (h0 + 2.0 * h1) / (3.0 * hsum)
@@ -228,9 +244,9 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
         if own == "B":  # B's side face's inward normal lies in B's face plane
             w_B = direction - np.einsum("nijk,nk->nij", direction, n_Bout)[..., None] * n_Bout[:, None, None, :]
             w_B /= np.maximum(np.linalg.norm(w_B, axis=-1, keepdims=True), 1e-12)
-            sliver_n.append(normal_A[:, None, None, :] + w_B)
+            sliver_n.append(normal_A[:, None, None, :] + ratio_AB[:, None, None, None] * w_B)
         else:
-            sliver_n.append(-direction - n_Bout[:, None, None, :])
+            sliver_n.append(-ratio_BA[:, None, None, None] * direction - n_Bout[:, None, None, :])
     w_all = np.concatenate([w, sliver_w[0].reshape(n, 16), sliver_w[1].reshape(n, 16)], axis=1)  # (n, 48)
     weight = w_all.sum(axis=1)
     safe = np.where(weight > 0.0, weight, 1.0)
@@ -240,7 +256,7 @@ def face_on_face(p_AB, R_AB, h_A, h_B, n_AB):
     w_main = w.sum(axis=1)
     depth_at = np.where(w_main > 0.0, face_level - np.einsum("nj,nj->n", moment.sum(axis=1), normal_A)
                         / np.where(w_main > 0.0, w_main, 1.0), 0.0)
-    point = point - np.einsum("nj,nj->n", point, normal_A)[:, None] * normal_A + (face_level - 0.5 * depth_at)[:, None] * normal_A
+    point = point - np.einsum("nj,nj->n", point, normal_A)[:, None] * normal_A + (face_level - f_A * depth_at)[:, None] * normal_A
     n_sl = [v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300) for v in sliver_n]  # 0 stays 0
     direction = (w[:, :, None] * main_normal[:, None, :]).sum(axis=1) + sum(
         (sw[..., None] * v).reshape(n, 16, 3).sum(axis=1) for sw, v in zip(sliver_w, n_sl))

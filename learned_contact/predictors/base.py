@@ -53,10 +53,13 @@ class MLPPredictor:
     supported_sizes: np.ndarray
     meta: dict
     compiled: bool = False
+    size_range: np.ndarray | None = None  # (2, 3) lowest, highest full extents [m]: any box inside answers too
 
     def __post_init__(self):
         sizes = np.ascontiguousarray(self.supported_sizes, dtype=float).reshape(-1, 3)
         object.__setattr__(self, "supported_sizes", sizes)
+        if self.size_range is not None:
+            object.__setattr__(self, "size_range", np.ascontiguousarray(self.size_range, dtype=float).reshape(2, 3))
         if self.compiled:
             if NATIVE_AVAILABLE:
                 object.__setattr__(self, "_native", self._native_model())
@@ -86,7 +89,7 @@ class MLPPredictor:
 
         p_AB (n, 3) or (3,): B's centre in A [m]; R_AB (n, 3, 3) or (3, 3): B's
         orientation in A; size_A, size_B (3,) or (n, 3): full box extents [m], each
-        one of `supported_sizes`. Returns (point_A (n, 3) [m] in A's frame, normal_A
+        one of `supported_sizes` or inside `size_range`. Returns (point_A (n, 3) [m] in A's frame, normal_A
         (n, 3) unit, A towards B); (3,) each for a single pose. Raises
         PredictorInputError for bad shapes, non-finite values or unsupported sizes.
 
@@ -105,7 +108,7 @@ class MLPPredictor:
                 return point, normal
         check_outside(outside)
         if not self.compiled:
-            p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
+            p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes, self.size_range)
             point, normal, depth = self._predict_numpy(p, R, sA, sB, outside == "raise")
         else:
             p, R, single = check_poses(p_AB, R_AB)
@@ -130,7 +133,7 @@ class MLPPredictor:
             if status:
                 self._refuse(status, row, p_AB, R_AB, size_A, size_B)
         else:
-            p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
+            p, R, sA, sB, single = check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes, self.size_range)
             depth = sat_normal(p, R, 0.5 * sA, 0.5 * sB)[1]
         return float(depth[0]) if single else depth
 
@@ -143,14 +146,15 @@ class MLPPredictor:
 
     def save(self, path) -> Path:
         """Writes the predictor to an .npz file: format_version, kind, supported_sizes,
-        meta (JSON), the network under mlp/ and a subclass's extra arrays
+        size_range (where it has one), meta (JSON), the network under mlp/ and a subclass's extra arrays
         (learned_contact.predictors.loading reads it)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         version, extra = self._extra_arrays()
+        ranged = {} if self.size_range is None else {"size_range": self.size_range}
         np.savez(path, format_version=np.array(version), kind=np.array(self.kind),
                  supported_sizes=self.supported_sizes, meta=np.array(json.dumps(self.meta)),
-                 **self.mlp.to_arrays("mlp/"), **extra)
+                 **ranged, **self.mlp.to_arrays("mlp/"), **extra)
         return path
 
     # ------------------------------------------------------------- for subclasses
@@ -164,18 +168,18 @@ class MLPPredictor:
 
     def _native_model(self):
         """The native core's Model of this predictor (learned_contact.compiled.native_model)."""
-        return native_model(self.kind, self.supported_sizes, self.mlp)
+        return native_model(self.kind, self.supported_sizes, self.mlp, size_range=self.size_range)
 
     def _refuse(self, status: int, row: int, p_AB, R_AB, size_A, size_B):
         """Raises the numpy path's error for the native core's status (1-6): the reference
         checks run on the same inputs and raise it (same class, same message); should they
         pass, the status's error from learned_contact.interface.raise_for_status."""
-        check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes)
+        check_numpy(p_AB, R_AB, size_A, size_B, self.supported_sizes, self.size_range)
         if status not in range(1, 7):
             raise RuntimeError(f"the native core answered status {status} (a bad argument) on checked inputs")
         p, R, _ = check_poses(p_AB, R_AB)
         sA, sB = check_size_shape("size_A", size_A, len(p)), check_size_shape("size_B", size_B, len(p))
-        raise_for_status(status, row, p, sA, sB, self.supported_sizes, R)
+        raise_for_status(status, row, p, sA, sB, self.supported_sizes, R, self.size_range)
 
 
 def _rebuild(cls, fields: dict):

@@ -175,8 +175,16 @@ def load_weights(name_or_path=None, *, compiled: bool = True):
         raise _fail(path, "supported_sizes", "is missing", "(k, 3) full extents [m]")
     if sizes.ndim != 2 or sizes.shape[1] != 3 or len(sizes) == 0 or not np.all(np.isfinite(sizes)):
         raise _fail(path, "supported_sizes", f"has shape {sizes.shape}", "(k, 3) finite full extents [m]")
+    size_range = None
+    if "size_range" in arrays:
+        size_range = np.asarray(arrays["size_range"], dtype=float)
+        if size_range.shape != (2, 3) or not np.all(np.isfinite(size_range)) or not np.all(
+                (size_range[0] > 0) & (size_range[0] <= size_range[1])):
+            raise _fail(path, "size_range", f"is {size_range.tolist()}",
+                        "(2, 3) lowest then highest full extents [m], 0 < lowest <= highest")
     try:
         meta = json.loads(str(arrays["meta"])) if "meta" in arrays else {}
     except json.JSONDecodeError as exc:
         raise _fail(path, "meta", f"is not JSON ({exc})", "a JSON object") from exc
-    return KINDS[kind].predictor(mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled, **extra)
+    return KINDS[kind].predictor(mlp=mlp, supported_sizes=sizes, meta=meta, compiled=compiled, size_range=size_range,
+                                 **extra)

@@ -24,7 +24,7 @@ import numpy as np
 from learned_contact.evaluation.metrics import evaluate, paper_table
 from learned_contact.evaluation.report import weights_digest, write_report
 from learned_contact.model.mlp import NumpyMLP
-from learned_contact.predictors.improved import SHIPPED_DIR, ContactPredictor
+from learned_contact.predictors.improved import ANSWERED_SIZE_RANGE, SHIPPED_DIR, ContactPredictor, answered_sizes
 from learned_contact.predictors.loading import load_weights
 from learned_contact.predictors.paper import PaperPredictor, predict_paper
 from learned_contact.training.config import RESTING_RECIPE, SUPPORT_EXPERT, TrainConfig
@@ -74,7 +74,8 @@ def train_default(out_dir=None, seed: int = 0, progress: bool = True, config: Tr
         expert, expert_info, expert_val = train_expert(data, config, progress=progress)
         extra = {"expert": expert, "expert_domain": config.expert.domain()}
         meta["train_info"]["expert_best_val_loss"] = expert_info["best_val_loss"]
-    predictor = ContactPredictor(mlp, sizes, meta, **extra)
+    # the network is fitted on config.types; it answers every ISO type and any box in the stated range
+    predictor = ContactPredictor(mlp, answered_sizes(), meta, size_range=ANSWERED_SIZE_RANGE, **extra)
     if not config.normal_correction:
         predictor = point_correction_only(predictor)
     t_improved = time.perf_counter() - t0 - t_labels

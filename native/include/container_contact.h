@@ -46,10 +46,10 @@ extern "C" {
  * ABI version changes whenever a struct or a signature does, so a library built from other headers
  * is refused instead of misread. CC_VERSION is major * 10000 + minor * 100 + patch. */
 #define CC_VERSION_MAJOR 0
-#define CC_VERSION_MINOR 10
+#define CC_VERSION_MINOR 11
 #define CC_VERSION_PATCH 0
 #define CC_VERSION (CC_VERSION_MAJOR * 10000 + CC_VERSION_MINOR * 100 + CC_VERSION_PATCH)
-#define CC_ABI_VERSION 3 /* 3: cc_step_force_law_given; CC_API exports; 2: cc_step_sleep gained pair_reuse */
+#define CC_ABI_VERSION 4 /* 4: cc_model.size_range; 3: cc_step_force_law_given; CC_API exports; 2: cc_step_sleep gained pair_reuse */
 #define CC_CHECK_VERSION() (cc_abi_version() == CC_ABI_VERSION)
 #define CC_MAX_LAYERS 8      /* hidden + output layers of one network */
 #define CC_MAX_DOMAIN 11     /* the resting expert's gate bounds */
@@ -86,7 +86,9 @@ typedef struct cc_mlp {
   const double *b[CC_MAX_LAYERS];
 } cc_mlp;
 
-/* A predictor. kind CC_KIND_IMPROVED: exact face-on-face integral + geometric estimate +
+/* A predictor: it answers sizes that match one of supported_sizes within 1e-3 m per axis, or
+ * that lie inside size_range where has_size_range is 1.
+ * kind CC_KIND_IMPROVED: exact face-on-face integral + geometric estimate +
  * main network (+ resting expert when has_expert); CC_KIND_PAPER: the seed paper's MLP. */
 typedef struct cc_model {
   int kind;                         /* enum cc_kind */
@@ -98,6 +100,8 @@ typedef struct cc_model {
   int n_domain;                     /* 11 (format 3) or 9 (format 2): the expert gate's bounds */
   double domain[CC_MAX_DOMAIN];
   int format_version;
+  int has_size_range;               /* 1: a size inside size_range answers too (a box of any size in range) */
+  double size_range[6];             /* lowest (3) then highest (3) full extents [m], each axis inclusive */
   void *storage;                    /* owned memory when cc_model_load made it, else NULL */
 } cc_model;
 

@@ -5,7 +5,7 @@
 
 #include "cc_internal.h" /* CCI_MAX_WIDTH */
 
-#define MAX_VIEWS (2 + 2 * (2 + 2 * CC_MAX_LAYERS))
+#define MAX_VIEWS (3 + 2 * (2 + 2 * CC_MAX_LAYERS)) /* sizes, range, domain and two networks */
 
 typedef struct {
   PyObject_HEAD
@@ -77,11 +77,11 @@ static int hold_mlp(ModelObject *self, PyObject *spec, const char *name, cc_mlp 
 }
 
 static PyObject *model_new(PyTypeObject *type, PyObject *args, PyObject *kwargs) {
-  static char *keywords[] = {"kind", "supported_sizes", "main", "expert", "domain", NULL};
+  static char *keywords[] = {"kind", "supported_sizes", "main", "expert", "domain", "size_range", NULL};
   int kind;
-  PyObject *supported, *main_spec, *expert_spec = Py_None, *domain = Py_None;
-  if (!PyArg_ParseTupleAndKeywords(args, kwargs, "iOO|OO:Model", keywords, &kind, &supported, &main_spec, &expert_spec,
-                                   &domain))
+  PyObject *supported, *main_spec, *expert_spec = Py_None, *domain = Py_None, *size_range = Py_None;
+  if (!PyArg_ParseTupleAndKeywords(args, kwargs, "iOO|OOO:Model", keywords, &kind, &supported, &main_spec, &expert_spec,
+                                   &domain, &size_range))
     return NULL;
   ModelObject *self = (ModelObject *)type->tp_alloc(type, 0);
   if (self == NULL) return NULL;
@@ -92,6 +92,12 @@ static PyObject *model_new(PyTypeObject *type, PyObject *args, PyObject *kwargs)
   m->supported_sizes = hold(self, supported, "supported_sizes", 2, -1, 3);
   if (m->supported_sizes == NULL) goto fail;
   m->n_sizes = (int)self->views[self->n_views - 1].shape[0];
+  if (size_range != Py_None) {
+    const double *r = hold(self, size_range, "size_range", 2, 2, 3);
+    if (r == NULL) goto fail;
+    for (int i = 0; i < 6; ++i) m->size_range[i] = r[i];
+    m->has_size_range = 1;
+  }
   if (hold_mlp(self, main_spec, "main", &m->main) < 0) goto fail;
   if ((expert_spec == Py_None) != (domain == Py_None)) {
     PyErr_SetString(PyExc_ValueError, "Model: expert and domain go together");
@@ -144,7 +150,7 @@ static PyTypeObject ModelType = {
     .tp_basicsize = sizeof(ModelObject),
     .tp_dealloc = (destructor)model_dealloc,
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_doc = "Model(kind, supported_sizes, main, expert=None, domain=None): a predictor for the native core over "
+    .tp_doc = "Model(kind, supported_sizes, main, expert=None, domain=None, size_range=None): a predictor for the native core over "
               "numpy arrays (kept alive by the model). kind 1 improved, 2 paper; supported_sizes (k, 3) [m]; main, "
               "expert: (x_mean, x_std, (W_0, ...), (b_0, ...), activation code 0 tanh / 1 silu / 2 relu), W_i "
               "(in, out); domain: the expert gate's 11 (or 9) bounds.",

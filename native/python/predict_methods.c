@@ -195,9 +195,23 @@ static PyObject *py_box_depth(PyObject *module, PyObject *const *args, Py_ssize_
  * which raises the reference's error. */
 static PyObject *py_check(PyObject *module, PyObject *const *args, Py_ssize_t nargs) {
   (void)module;
-  if (nargs != 5) {
-    PyErr_SetString(PyExc_TypeError, "check(supported, p, R, size_A, size_B) takes 5 arguments");
+  if (nargs != 5 && nargs != 6) {
+    PyErr_SetString(PyExc_TypeError, "check(supported, p, R, size_A, size_B[, size_range]) takes 5 or 6 arguments");
     return NULL;
+  }
+  double range[6];
+  const double *range_at = NULL;
+  if (nargs == 6 && args[5] != Py_None) {
+    Py_buffer r;
+    if (cc_py_get_f64(args[5], &r, 0, "size_range") < 0) return NULL;
+    if (count_of(&r) != 6) {
+      PyBuffer_Release(&r);
+      PyErr_SetString(PyExc_ValueError, "size_range must hold 6 values (2, 3)");
+      return NULL;
+    }
+    memcpy(range, r.buf, sizeof range);
+    PyBuffer_Release(&r);
+    range_at = range;
   }
   Py_buffer supported;
   if (cc_py_get_f64(args[0], &supported, 0, "supported") < 0) return NULL;
@@ -213,7 +227,7 @@ static PyObject *py_check(PyObject *module, PyObject *const *args, Py_ssize_t na
     return NULL;
   }
   size_t row = 0;
-  int status = cci_check_inputs(supported.buf, (int)k, in.n, in.p.buf, in.R.buf, in.sA.buf, in.rows_A, in.sB.buf,
+  int status = cci_check_inputs(supported.buf, (int)k, range_at, in.n, in.p.buf, in.R.buf, in.sA.buf, in.rows_A, in.sB.buf,
                                 in.rows_B, &row);
   cc_py_release_inputs(&in);
   PyBuffer_Release(&supported);
@@ -227,7 +241,7 @@ PyMethodDef cc_py_predict_methods[] = {
     {"depth", (PyCFunction)(void (*)(void))py_depth, METH_FASTCALL,
      "depth(model, p, R, size_A, size_B, out) -> (status, row): cc_depth on float64 arrays."},
     {"check", (PyCFunction)(void (*)(void))py_check, METH_FASTCALL,
-     "check(supported, p, R, size_A, size_B) -> (status, row): cc_predict's input checks, no model"},
+     "check(supported, p, R, size_A, size_B[, size_range]) -> (status, row): cc_predict's input checks, no model"},
     {"box_depth", (PyCFunction)(void (*)(void))py_box_depth, METH_FASTCALL,
      "box_depth(p, R, size_A, size_B, out): separating-axis depth [m] of boxes of any size (no model)"},
     {NULL, NULL, 0, NULL},

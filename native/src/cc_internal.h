@@ -111,9 +111,10 @@ void cci_mlp_forward(const cc_mlp *mlp, const double *x, double *y, double *h0, 
  * activation, non-null arrays and no layer wider than CCI_MAX_WIDTH; else CC_BAD_ARGUMENT. */
 int cci_check_mlp(const cc_mlp *mlp, int n_in, int n_out);
 /* The input checks of cc_predict (interface.check_numpy's, in its order) against n_sizes
- * supported sizes (n_sizes, 3) [m], without a model: a cc_status and the first bad row. */
-int cci_check_inputs(const double *supported, int n_sizes, size_t n, const double *p, const double *R,
-                     const double *sA, size_t rows_A, const double *sB, size_t rows_B, size_t *bad_row);
+ * supported sizes (n_sizes, 3) [m] and, unless NULL, the size range (2, 3) [m], without a model: a cc_status and the first bad row. */
+int cci_check_inputs(const double *supported, int n_sizes, const double *size_range, size_t n, const double *p,
+                     const double *R, const double *sA, size_t rows_A, const double *sB, size_t rows_B,
+                     size_t *bad_row);
 /* The activations' tanh: plain arithmetic within a few 1e-15 of np.tanh (mlp.c says how). */
 double cci_tanh(double x);
 /* 1 (the default): the networks run on AVX vectors where the CPU has them; 0: plain C only

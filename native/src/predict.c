@@ -41,6 +41,13 @@ static int check_sizes(const double *s, size_t rows, const cc_model *model, int 
   int found = 0;
   for (size_t r = 0; r < rows; ++r) {
     double nearest = HUGE_VAL; /* min over the supported sizes of the largest axis difference */
+    if (model->has_size_range) {
+      const double *lo = model->size_range, *hi = model->size_range + 3;
+      int inside = 1;
+      for (int c = 0; c < 3; ++c)
+        inside &= s[3 * r + c] >= lo[c] - CCI_SIZE_TOLERANCE && s[3 * r + c] <= hi[c] + CCI_SIZE_TOLERANCE;
+      if (inside) nearest = 0.0;
+    }
     for (int k = 0; k < model->n_sizes; ++k) {
       const double *t = model->supported_sizes + 3 * k;
       double d = fabs(s[3 * r] - t[0]);
@@ -92,12 +99,17 @@ static int check_inputs(const cc_model *model, size_t n, const double *p, const 
   return check_sizes(sB, rows_B, model, CC_SIZE_B_UNSUPPORTED, CC_SIZE_B_NOT_FINITE, bad_row);
 }
 
-int cci_check_inputs(const double *supported, int n_sizes, size_t n, const double *p, const double *R,
-                     const double *sA, size_t rows_A, const double *sB, size_t rows_B, size_t *bad_row) {
+int cci_check_inputs(const double *supported, int n_sizes, const double *size_range, size_t n, const double *p,
+                     const double *R, const double *sA, size_t rows_A, const double *sB, size_t rows_B,
+                     size_t *bad_row) {
   cc_model sizes_only;
   memset(&sizes_only, 0, sizeof sizes_only);
   sizes_only.n_sizes = n_sizes;
   sizes_only.supported_sizes = supported;
+  if (size_range != NULL) {
+    sizes_only.has_size_range = 1;
+    memcpy(sizes_only.size_range, size_range, sizeof sizes_only.size_range);
+  }
   return check_inputs(&sizes_only, n, p, R, sA, rows_A, sB, rows_B, bad_row);
 }
 

@@ -120,10 +120,11 @@ static inline void side_planes(scratch *w, int t0, int t1, int t2, int row, int 
 
 /* The clip that keeps a face's own part near its outer edge e0 -> e1 (frame rows) of the face
  * centred at frame row `centre` (face_on_face with _inward): planes[row] = (g, c), g =
- * -(nA / 2 + w_in), c = -(face_level / 2 + w_in . e0), w_in the unit inward perpendicular to
- * the edge in A's face plane (from the in-plane components alone: the numpy path's values). */
+ * -(share nA + w_in), c = -(share face_level + w_in . e0), w_in the unit inward perpendicular to
+ * the edge in A's face plane (from the in-plane components alone: the numpy path's values), share
+ * the face's box's part of the overlap (f_A or f_B; one half for equal fields). */
 static inline void edge_plane(scratch *w, int e0, int e1, int centre, double face_level, int row, int uA, int vA,
-                       double sigma_A) {
+                       double sigma_A, double share) {
   int a = 3 - uA - vA;
   double(*f)[3] = w->frame;
   double du = f[centre][uA] - f[e0][uA], dv = f[centre][vA] - f[e0][vA];
@@ -139,8 +140,8 @@ static inline void edge_plane(scratch *w, int e0, int e1, int centre, double fac
   double *pl = w->planes[row];
   pl[uA] = -wu;
   pl[vA] = -wv;
-  pl[a] = -(0.5 * sigma_A);
-  pl[3] = -(0.5 * face_level + (wu * f[e0][uA] + wv * f[e0][vA]));
+  pl[a] = -(share * sigma_A);
+  pl[3] = -(share * face_level + (wu * f[e0][uA] + wv * f[e0][vA]));
 }
 
 /* planes[row][:3] . frame[r] - planes[row][3] [m]: a point's signed distance as clip computes it. */
@@ -173,21 +174,21 @@ static inline void interval(double s0, double s1, double *t0, double *t1) {
 }
 
 /* A sliver strip over an edge interval `length` [m] long, h0, h1 [m] wide at its ends, the
- * pressure rising linearly across it from the edge: its area on the 45 deg surface [m^2], the
- * strip centroid's distance from the edge [m] (area x it is the strip's weight), the centroid's
- * place along the interval (0 at its start, 1 at its end), the centre of pressure's distance
- * from the edge [m] and its place along the interval. */
+ * pressure rising linearly across it from the edge: its area on its surface, which rises `rise`
+ * per unit of width (1, 45 deg, for equal fields), times the pressure's scale `scale` (0.5 / the
+ * box's share: 1 for equal fields) [m^2], the strip centroid's distance from the edge [m] (area x
+ * it is the strip's weight), the centroid's place along the interval (0 at its start, 1 at its
+ * end), the centre of pressure's distance from the edge [m] and its place along the interval. */
 typedef struct {
   double area, y_bar, along, y_p, along_p;
 } strip_t;
 
-static inline strip_t strip(double h0, double h1, double length) {
-  const double sqrt2 = 1.4142135623730951; /* math.sqrt(2.0) */
+static inline strip_t strip(double h0, double h1, double length, double rise, double scale) {
   strip_t s;
   double hs = h0 + h1;
   double hsum = hs > 0.0 ? hs : 1.0;
   double h2 = h0 * h0 + h0 * h1 + h1 * h1;
-  s.area = sqrt2 * length * 0.5 * hs;
+  s.area = sqrt(1.0 + rise * rise) * length * 0.5 * hs * scale;
   s.y_bar = h2 / (3.0 * hsum);
   s.along = (h0 + 2.0 * h1) / (3.0 * hsum);
   h2 = h2 > 0.0 ? h2 : 1.0;
@@ -257,6 +258,10 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
   faces(R, n, &a, &sigma_A, &m, &s_B);
   int uA = (a + 1) % 3, vA = (a + 2) % 3, uB = (m + 1) % 3, vB = (m + 2) % 3;
   double U = hA[uA], V = hA[vA], L = hA[a]; /* A's face: |u| <= U, |v| <= V at height L */
+  /* the fields' depths (half each box's smallest extent) and each box's share of the overlap
+   * (quadrature.face_on_face: f_A, f_B, ratio_AB, ratio_BA; 0.5, 0.5, 1, 1 for equal fields) */
+  double H_A = cci_min(cci_min(hA[0], hA[1]), hA[2]), H_B = cci_min(cci_min(hB[0], hB[1]), hB[2]);
+  double f_A = H_A / (H_A + H_B), f_B = H_B / (H_A + H_B), ratio_AB = H_A / H_B, ratio_BA = H_B / H_A;
   double *top = frame[F_TOP], *cB = frame[F_CENTRE_B], *nA = frame[F_NA], *nB = frame[F_NB];
   double h_top = sigma_A * hA[a], h_bottom = s_B * hB[m];
   for (int c = 0; c < 3; ++c) {
@@ -276,8 +281,8 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
     int in = (i + 1) % 4;
     side_planes(w, F_TOP, F_CA + i, F_CA + in, P_SIDE_A + 3 * i, uA, vA, sigma_A);
     side_planes(w, F_CENTRE_B, F_CB + i, F_CB + in, P_SIDE_B + 3 * i, uA, vA, sigma_A);
-    edge_plane(w, F_CB + i, F_CB + in, F_CENTRE_B, L, P_EDGE_B + i, uA, vA, sigma_A);
-    edge_plane(w, F_CA + i, F_CA + in, F_TOP, L, P_EDGE_A + i, uA, vA, sigma_A);
+    edge_plane(w, F_CB + i, F_CB + in, F_CENTRE_B, L, P_EDGE_B + i, uA, vA, sigma_A, f_B);
+    edge_plane(w, F_CA + i, F_CA + in, F_TOP, L, P_EDGE_A + i, uA, vA, sigma_A, f_A);
   }
   /* each side's value at the other face's fan corners (and at B's centre) */
   for (int k = 0; k < 12; ++k) {
@@ -394,10 +399,10 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
       if (!(t1 > t0)) continue;
       double u0 = a0 + t0 * g0, u1 = a1 + t0 * g1, u2 = a2 + t0 * g2;
       double v0 = a0 + t1 * g0, v1 = a1 + t1 * g1, v2 = a2 + t1 * g2;
-      double h0 = 0.5 * cci_max(L - u2, 0.0); /* the strip's width at each end [m]: half the overlap */
-      double h1 = 0.5 * cci_max(L - v2, 0.0);
+      double h0 = f_B * cci_max(L - u2, 0.0); /* the strip's width at each end [m]: B's share of the overlap */
+      double h1 = f_B * cci_max(L - v2, 0.0);
       double l0 = v0 - u0, l1 = v1 - u1, l2 = v2 - u2;
-      strip_t s = strip(h0, h1, sqrt(dot_lr(l0, l1, l2, l0, l1, l2, a)));
+      strip_t s = strip(h0, h1, sqrt(dot_lr(l0, l1, l2, l0, l1, l2, a)), ratio_AB, 0.5 / f_B);
       double x0 = u0 + s.along * l0, x1 = u1 + s.along * l1, x2 = u2 + s.along * l2; /* the strip's centre */
       double w_strip = s.area * s.y_bar * fade(cci_min(U - fabs(x0), V - fabs(x1)), cci_max(L - x2, 0.0));
       if (!(w_strip > 0.0)) continue;
@@ -417,7 +422,7 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
       sd = (d0 * nB0 + d1 * nB1) + d2 * nB2;
       d0 = d0 - sd * nB0; d1 = d1 - sd * nB1; d2 = d2 - sd * nB2;
       d = cci_max(sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-12);
-      d0 = d0 / d; d1 = d1 / d; d2 = 1.0 + d2 / d;
+      d0 = ratio_AB * (d0 / d); d1 = ratio_AB * (d1 / d); d2 = 1.0 + ratio_AB * (d2 / d);
       d = cci_max(sqrt((d0 * d0 + d1 * d1) + d2 * d2), 1e-300);
       sum_n0 += w_strip * (d0 / d);
       sum_n1 += w_strip * (d1 / d);
@@ -434,7 +439,7 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
     interval(-items[V_DEPTH_B][i], -items[V_DEPTH_B][in], &e_t0, &e_t1);
     if (!(e_t1 > e_t0)) continue;
     /* the strip's normal: -(A's side face's inward normal -(ou, ov, 0)) - B's face normal */
-    double m0 = ou - nB0, m1 = ov - nB1, m2 = -nB2;
+    double m0 = ratio_BA * ou - nB0, m1 = ratio_BA * ov - nB1, m2 = -nB2;
     double d = cci_max(sqrt((m0 * m0 + m1 * m1) + m2 * m2), 1e-300);
     m0 = m0 / d; m1 = m1 / d; m2 = m2 / d;
     for (int j = 0; j < 4; ++j) {
@@ -447,10 +452,10 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
       if (!(t1 > t0)) continue;
       double u0 = a0 + t0 * g0, u1 = a1 + t0 * g1;
       double v0 = a0 + t1 * g0, v1 = a1 + t1 * g1;
-      double h0 = 0.5 * cci_max(dot_c(nB0, nB1, nB2, o0 - u0, o1 - u1, o2 - L, a) / facing, 0.0);
-      double h1 = 0.5 * cci_max(dot_c(nB0, nB1, nB2, o0 - v0, o1 - v1, o2 - L, a) / facing, 0.0);
+      double h0 = f_A * cci_max(dot_c(nB0, nB1, nB2, o0 - u0, o1 - u1, o2 - L, a) / facing, 0.0);
+      double h1 = f_A * cci_max(dot_c(nB0, nB1, nB2, o0 - v0, o1 - v1, o2 - L, a) / facing, 0.0);
       double l0 = v0 - u0, l1 = v1 - u1;
-      strip_t s = strip(h0, h1, fabs(l0 + l1)); /* the edge runs along u or v */
+      strip_t s = strip(h0, h1, fabs(l0 + l1), ratio_BA, 0.5 / f_A); /* the edge runs along u or v */
       double x0 = u0 + s.along * l0, x1 = u1 + s.along * l1;
       double qx0 = x0 - p0, qx1 = x1 - p1, qx2 = L - p2; /* how far inside B's face rectangle */
       double qu = dot_lr(bu0, bu1, bu2, qx0, qx1, qx2, a);
@@ -469,14 +474,14 @@ double cci_face_on_face(const double p[3], const double R[9], const double hA[3]
   /* the weighted means: the point on the equal-pressure plane, half the mean overlap below A's
    * face; the polygons' normal is the bisector of the two face normals */
   double main_n[3];
-  for (int c = 0; c < 3; ++c) main_n[c] = sigma_A * (c == a ? 1.0 : 0.0) - s_B * R[3 * c + m];
+  for (int c = 0; c < 3; ++c) main_n[c] = ratio_BA * (sigma_A * (c == a ? 1.0 : 0.0)) - s_B * R[3 * c + m];
   double length = sqrt((main_n[0] * main_n[0] + main_n[1] * main_n[1]) + main_n[2] * main_n[2]);
   for (int c = 0; c < 3; ++c) main_n[c] = main_n[c] / length;
   double safe = weight > 0.0 ? weight : 1.0;
   double depth_at = w_poly > 0.0 ? L - depth_sum / w_poly : 0.0; /* the polygons' pressure-weighted mean overlap */
   point[uA] = sum_u / safe;
   point[vA] = sum_v / safe;
-  point[a] = sigma_A * (L - 0.5 * depth_at);
+  point[a] = sigma_A * (L - f_A * depth_at);
   double n0 = w_poly * main_n[uA] + sum_n0;
   double n1 = w_poly * main_n[vA] + sum_n1;
   double n2 = w_poly * (sigma_A * main_n[a]) + sum_n2;

@@ -271,6 +271,23 @@ static int load(loader *L, const unsigned char *buf, size_t size, cc_model *out)
   if ((rc = check_f8(L, "supported_sizes", &sizes, 2, shape_sizes, "(k, 3) finite full extents [m]"))) return rc;
   if (sizes.shape[0] == 0 || sizes.shape[0] > 1u << 20)
     return ccz_fail(&L->c, "entry 'supported_sizes' has %zu rows; expected (k, 3) with k >= 1", sizes.shape[0]);
+  /* the size range (optional): any box inside it answers too */
+  npy range;
+  int has_range = 0;
+  if ((rc = get(L, "size_range", &range, &has_range, NULL))) return rc;
+  if (has_range) {
+    long shape_range[2] = {2, 3};
+    if ((rc = check_f8(L, "size_range", &range, 2, shape_range, "(2, 3) lowest and highest full extents [m]"))) return rc;
+    for (int c = 0; c < 3; ++c) {
+      double lo = f64(range.data + 8 * c), hi = f64(range.data + 8 * (3 + c));
+      if (!(lo > 0.0 && lo <= hi && isfinite(hi)))
+        return ccz_fail(&L->c, "entry 'size_range' axis %d is %.17g to %.17g; expected 0 < lowest <= highest, finite", c,
+                        lo, hi);
+      out->size_range[c] = lo;
+      out->size_range[3 + c] = hi;
+    }
+    out->has_size_range = 1;
+  }
   /* one allocation for every array */
   size_t total = sizes.count + mlp_doubles(&main_net) + (has_expert ? mlp_doubles(&expert_net) : 0);
   double *storage = malloc(total * sizeof(double));

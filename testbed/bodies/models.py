@@ -66,6 +66,8 @@ def container_sdf(
     model = root.find("model")
     model.set("name", name)
     link = model.find("link")
+    for element in link.iter("box"):  # the catalogue's size (a generic box's replaces its template's)
+        element.find("size").text = " ".join(repr(float(v)) for v in ctype.size)
     inertial = link.find("inertial")
     inertial.find("mass").text = repr(float(mass))
     inertial.find("pose").text = " ".join(repr(float(x)) for x in p_CoCcm_C) + " 0 0 0"

@@ -24,13 +24,20 @@ def two_stack_run():
     return scenario, run_scenario(scenario)
 
 
-@pytest.mark.parametrize("pair", [("1CC", "1CC"), ("1CC", "1AA"), ("1AA", "1AAA")])
-def test_fitted_stiffness_is_drakes(pair):
-    kappa, deviation = fit_pressure_stiffness(*pair)
-    # 0.1 %: the fitted constant is rounded to 5 digits; Drake's curve is linear within 0.05 %
-    # (fitted at KAPPA_MODULUS = 1e8 Pa, the learned law's own modulus)
-    assert kappa == pytest.approx(FITTED_KAPPA[frozenset(pair)], rel=1e-3)
-    assert deviation < 1e-3
+# (pair, relative bound): 0.1 % where both boxes have one footprint and one field depth (the constant is
+# rounded to 5 digits; Drake's curve is linear within 0.05 %); 0.25 % where B's edges lie inside A's face
+# or the fields differ (a half height on a full height): there the side faces' tetrahedra carry the
+# edge strips, which the field slope E / (H_A + H_B) leaves out (measured 0.12 % for a 10 ft box on a
+# 45 ft one, 0.17 % for a 20 ft half height on a 20 ft box)
+KAPPA_PAIRS = [(("1CC", "1CC"), 1e-3), (("1CC", "1AA"), 1e-3), (("1AA", "1AAA"), 1e-3), (("1CX", "1CC"), 2.5e-3),
+               (("1EEE", "1D"), 2.5e-3)]
+
+
+@pytest.mark.parametrize("pair, bound", KAPPA_PAIRS)
+def test_fitted_stiffness_is_drakes(pair, bound):
+    kappa, deviation = fit_pressure_stiffness(*pair)  # fitted at KAPPA_MODULUS = 1e8 Pa, the law's own modulus
+    assert kappa == pytest.approx(FITTED_KAPPA[frozenset(pair)], rel=bound)
+    assert deviation < bound  # F(d) linear in d within it (the edge strips' share grows with the overlap)
 
 
 # (roll, pitch, yaw) [rad], B's centre offset (x, y) [m], overlap at the centre [m]

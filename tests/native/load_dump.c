@@ -3,7 +3,7 @@
  *   load_dump WEIGHTS OUT.bin
  *       Loads WEIGHTS with cc_model_load. On success prints the model's integers on stdout (one
  *       "key value..." line each) and writes every float64 it holds to OUT.bin in this order:
- *       supported_sizes, main (x_mean, x_std, W0, b0, W1, b1, ...), expert (same order, if
+ *       supported_sizes, size_range (if any), main (x_mean, x_std, W0, b0, W1, b1, ...), expert (same order, if
  *       any), domain (if any); exit 0. On failure prints the error line on stderr, exit 2.
  *   load_dump --fuzz WEIGHTS STRIDE SCRATCH
  *       For every STRIDE-th byte offset k of WEIGHTS: the file cut to k bytes, the byte at k
@@ -53,9 +53,10 @@ static void add_mlp(flat *f, const cc_mlp *m) {
 /* Every field a predictor reads, in a fixed order (pointers replaced by what they point at). */
 static flat flatten(const cc_model *m) {
   flat f = {NULL, 0, 0};
-  int ints[5] = {m->kind, m->format_version, m->n_sizes, m->has_expert, m->n_domain};
+  int ints[6] = {m->kind, m->format_version, m->n_sizes, m->has_expert, m->n_domain, m->has_size_range};
   add(&f, ints, sizeof ints);
   add(&f, m->supported_sizes, sizeof(double) * 3 * (size_t)m->n_sizes);
+  if (m->has_size_range) add(&f, m->size_range, sizeof m->size_range);
   add_mlp(&f, &m->main);
   if (m->has_expert) {
     add_mlp(&f, &m->expert);
@@ -90,9 +91,11 @@ static int dump(const char *weights, const char *out) {
     cc_model_free(&model);
     return 1;
   }
-  printf("kind %d\nformat_version %d\nn_sizes %d\nhas_expert %d\nn_domain %d\n", model.kind, model.format_version,
-         model.n_sizes, model.has_expert, model.n_domain);
-  int ok = put(f, model.supported_sizes, 3 * (size_t)model.n_sizes) && put_mlp(f, "main", &model.main);
+  printf("kind %d\nformat_version %d\nn_sizes %d\nhas_expert %d\nn_domain %d\nhas_size_range %d\n", model.kind,
+         model.format_version, model.n_sizes, model.has_expert, model.n_domain, model.has_size_range);
+  int ok = put(f, model.supported_sizes, 3 * (size_t)model.n_sizes);
+  if (model.has_size_range) ok = ok && put(f, model.size_range, 6);
+  ok = ok && put_mlp(f, "main", &model.main);
   if (model.has_expert) ok = ok && put_mlp(f, "expert", &model.expert) && put(f, model.domain, (size_t)model.n_domain);
   ok = (fclose(f) == 0) && ok;
   cc_model_free(&model);

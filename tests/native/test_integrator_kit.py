@@ -102,7 +102,7 @@ def driver(kit, tmp_path_factory) -> Path:
 
 def _expected_doubles(arrays) -> np.ndarray:
     """The float64 values load_dump writes, in its order, from the arrays as numpy reads them."""
-    parts = [arrays["supported_sizes"]]
+    parts = [arrays["supported_sizes"]] + ([arrays["size_range"]] if "size_range" in arrays else [])
     for prefix in ("mlp/", "expert/"):
         if f"{prefix}W0" not in arrays:
             continue
@@ -137,6 +137,7 @@ def test_reader_loads_the_shipped_files_bit_for_bit(driver, kind, tmp_path):
     assert int(lines["n_sizes"]) == len(arrays["supported_sizes"])
     assert int(lines["has_expert"]) == ("expert/W0" in arrays)
     assert int(lines["n_domain"]) == (len(arrays["expert/domain"]) if "expert/domain" in arrays else 0)
+    assert int(lines["has_size_range"]) == ("size_range" in arrays) == (kind == "improved")
     dims = [arrays["mlp/W0"].shape[0]] + [arrays[f"mlp/W{i}"].shape[1] for i in range(int(lines["main"].split()[1]))]
     assert lines["main"].split()[5:] == [str(d) for d in dims]
 
@@ -174,6 +175,8 @@ MALFORMED = [
      "missing", True),
     ("version 1 with expert", lambda a: dict(a, format_version=np.array(1)), "format_version", "resting expert", True),
     ("sizes shape", lambda a: dict(a, supported_sizes=a["supported_sizes"][0]), "supported_sizes", "has shape", True),
+    ("size range shape", lambda a: dict(a, size_range=a["size_range"][0]), "size_range", "has shape", True),
+    ("size range order", lambda a: dict(a, size_range=a["size_range"][::-1]), "size_range", "lowest <= highest", True),
     # (learned_contact's loader refuses it too, but with numpy's bare ValueError, not a WeightsError)
     ("string sizes", lambda a: dict(a, supported_sizes=np.array("1CC")), "supported_sizes", "dtype", False),
     # stricter than numpy's reader (which converts): the C reader takes float64 little-endian only

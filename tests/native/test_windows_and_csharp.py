@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from learned_contact import load_predictor
+from learned_contact.compiled.kernels import ABI_VERSION
 from testbed.effects.learned_dynamics.step import SleepingConfig
 from testbed.geometry.rotations import rotation_from_rpy
 
@@ -122,7 +123,8 @@ def csharp(tmp_path_factory) -> dict[str, list[str]]:
 
 
 def test_csharp_checks_the_version_and_predicts_as_python(csharp):
-    assert csharp["version"][2] == "3"  # "version V abi A": the library's ABI, which CheckVersion compared with 3
+    # "version V abi A": the library's ABI, which CheckVersion compared with its declarations' AbiVersion
+    assert csharp["version"][2] == str(ABI_VERSION)
     predictor = load_predictor("improved")
     for i, (p, rpy) in enumerate(POSES):
         R = rotation_from_rpy(np.array([rpy]))[0]

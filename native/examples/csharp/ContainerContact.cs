@@ -42,7 +42,7 @@ namespace ContainerContact
     public static class Native
     {
         public const string Library = "container_contact"; // libcontainer_contact.so / container_contact.dll
-        public const int AbiVersion = 3;                  // CC_ABI_VERSION of the headers these mirror
+        public const int AbiVersion = 4;                  // CC_ABI_VERSION of the headers these mirror
         public const int ModelBytes = 4096;               // more than sizeof(cc_model) on any platform
 
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)] public static extern int cc_version();

@@ -47,7 +47,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import LeafSystem
 
 from learned_contact import WeightsError, load_predictor, sources
-from learned_contact.interface import SIZE_TOLERANCE
+from learned_contact.interface import SIZE_TOLERANCE, in_size_range
 from learned_contact.predictors.external import FORCE_MODULUS
 from testbed.bodies.containers import CONTAINER_TYPES
 from testbed.effects import register
@@ -312,7 +312,8 @@ class LearnedDynamicsEffect(Effect):
         supported = np.asarray(self.predictor.supported_sizes, dtype=float).reshape(-1, 3)
         for i, spec in enumerate(specs):  # at build time, naming the scene and the container, not mid-run
             size = np.asarray(CONTAINER_TYPES[spec.type].size, dtype=float)
-            if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE:
+            ranged = in_size_range(size[None], getattr(self.predictor, "size_range", None))[0]
+            if np.abs(supported - size).max(axis=1).min() > SIZE_TOLERANCE and not ranged:
                 choices = "; ".join(str(tuple(round(float(v), 3) for v in s)) for s in supported)
                 raise ScenarioError(self.source, f"containers[{i}]",
                                     f"'{spec.name}' (type {spec.type}, size {tuple(round(float(v), 3) for v in size)} m) is not "

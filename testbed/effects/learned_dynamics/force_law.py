@@ -23,15 +23,25 @@ from testbed.physics import GRAVITY
 # vibrates at ~5 mm/s after a landing (its friction and tilt stay explicit) and the shipped scenes'
 # closed-loop gates were not re-measured there, so the default stays 1e8 Pa (README.md beside this file).
 KAPPA_MODULUS = 1.0e8
-# [Pa/m] fitted pressure stiffness per unordered size pair at KAPPA_MODULUS (fit_pressure_stiffness;
-# tests/closed_loop/test_closed_loop.py re-fits it against Drake). Drake's pressure is linear in the modulus:
+
+
+def field_kappa(size_a, size_b, modulus: float = KAPPA_MODULUS) -> float:
+    """kappa [Pa/m] of two compliant boxes of full extents size_a, size_b (3,) [m] pressed face to face:
+    Drake's pressure rises at E / H with depth in each, H half the box's smallest extent (its medial
+    axis's depth), and the two fields in series give E / (H_a + H_b) per metre of overlap."""
+    return float(modulus / (0.5 * min(size_a) + 0.5 * min(size_b)))
+
+
+# [Pa/m] pressure stiffness per unordered type pair at KAPPA_MODULUS (field_kappa, rounded to 5 digits as
+# the former fit was: 4.1017e7 for every pair of full-height boxes; tests/closed_loop/test_closed_loop.py
+# fits it against Drake, half heights included). Drake's pressure is linear in the modulus:
 # pressure_stiffness() scales it to another modulus (what a law as stiff as that truth would use).
-FITTED_KAPPA = {frozenset(p): 4.1017e7 for p in
-                [("1CC",), ("1AA",), ("1AAA",), ("1CC", "1AA"), ("1CC", "1AAA"), ("1AA", "1AAA")]}
+FITTED_KAPPA = {frozenset((a, b)): float(f"{field_kappa(CONTAINER_TYPES[a].size, CONTAINER_TYPES[b].size):.5g}")
+                for a in CONTAINER_TYPES for b in CONTAINER_TYPES}
 
 
 def pressure_stiffness(type_a: str, type_b: str, modulus: float = KAPPA_MODULUS) -> float:
-    """kappa [Pa/m] of a size pair when every geometry has `modulus` [Pa]."""
+    """kappa [Pa/m] of a type pair when every geometry has `modulus` [Pa]."""
     return FITTED_KAPPA[frozenset((type_a, type_b))] * modulus / KAPPA_MODULUS
 
 

@@ -133,7 +133,11 @@ class SleepingConfig:
       stays within eps_p (any point) and eps_R of the pose that answer was asked at (half what an
       asleep island allows), at any speed (container_contact_step.h). A still-settling yard
       (the scale study's 1,000-container window, 1e-2 m/s) would reuse 98 % of its asks; it is
-      off because it changes when pairs are asked (the island counts the sleeping tests pin)."""
+      off because it changes when pairs are asked (the island counts the sleeping tests pin).
+    mujoco_trees: the MuJoCo host (testbed/engines/mujoco_learned/sleep.py) also puts an asleep
+      island's trees to sleep in MuJoCo (mjENBL_SLEEP: not integrated, +0.0 applied rows) and skips
+      the learned step while every container sleeps; on with enabled (the fidelity it keeps: that
+      module's tests)."""
 
     enabled: bool = True
     v_sleep: float = 1e-3
@@ -142,6 +146,7 @@ class SleepingConfig:
     eps_p: float = 1e-4
     eps_R: float = 1e-6
     pair_reuse: bool = False
+    mujoco_trees: bool = True
 
     def as_tuple(self) -> tuple:
         """(enabled, v_sleep, w_sleep, t_sleep, eps_p, eps_R[, 1.0 with pair_reuse]) for the native step."""
