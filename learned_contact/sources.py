@@ -9,7 +9,9 @@
 Every command option, effect field, gate and study that names a predictor takes these
 strings and nothing else lists them: help texts use HELP, labels use `label`. Which source
 a string is: a shipped name; else `module:attribute` when it reads so and is not an
-existing file; else a path, by suffix (.onnx, else a weights .npz).
+existing file; else a path, by suffix (.onnx, else a weights .npz). A bare word that is no
+file ('improoved') is refused as a name, with the closest shipped names and the other forms
+(unknown_name).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from learned_contact.predictors import limits
 from learned_contact.predictors.loading import SHIPPED, load_weights
 from learned_contact.predictors.onnx_model import check_file, load_onnx
 from learned_contact.predictors.python_model import is_python_spec, load_python
+from testbed.errors import one_of
 
 DEFAULT = "improved"
 SHIPPED_NAMES = tuple(SHIPPED)  # ("improved", "paper")
@@ -63,6 +66,22 @@ def source_of(spec) -> Source:
     if spec.lower().endswith(".onnx"):
         return BY_KEY["onnx"]
     return BY_KEY["weights"]
+
+
+OTHER_FORMS = "or a file (PATH.npz: weights, PATH.onnx: an ONNX model) or module:attribute (a Python factory)"
+
+
+def looks_like_a_name(spec: str) -> bool:
+    """Whether `spec`, read as a weights path, is rather a mistyped name: no such file, no
+    folder in it and no file suffix ('improoved', not 'my/weights.npz')."""
+    path = Path(spec)
+    return not path.exists() and not path.suffix and len(path.parts) == 1 and "/" not in spec and "\\" not in spec
+
+
+def unknown_name(spec: str) -> str:
+    """One line for a predictor string that names nothing: "'improoved' is not a predictor:
+    did you mean 'improved'? expected one of: improved, paper; or a file (...) or module:attribute"."""
+    return f"{spec!r} is not a predictor: {one_of(spec, SHIPPED_NAMES)}; {OTHER_FORMS}"
 
 
 def label(spec) -> str:
@@ -116,6 +135,8 @@ def load_predictor(spec=None, *, compiled: bool = True):
         raise WeightsError(f"predictor '': expected {HELP}")
     source = source_of(spec)
     spec = DEFAULT if spec is None else str(spec)
+    if source.key == "weights" and looks_like_a_name(spec):
+        raise WeightsError(unknown_name(spec))
     key = (spec, compiled, _identity(spec, source.key), limits.limits())
     if key not in _loaded:
         if source.key in UNTRUSTED:

@@ -15,7 +15,8 @@
   simulator's per-contact call) and batched (every pair of a step in one call); for a model
   the testbed did not ship also its own call alone and the wrapper's share (the difference);
 - `drake_point_pair_cost(singles)`: Drake's point-pair query per pair, with the pose set per
-  call and the query alone (the reference every ratio is stated against);
+  call (its fastest round and every round: the reference's spread in the run) and the query
+  alone (the reference every ratio is stated against);
 - `first_call_s(spec)`: import, load and the first answer in a fresh interpreter (what a
   simulator pays at start-up), under learned_contact.predictors.limits' bounds.
 
@@ -133,17 +134,34 @@ def _type_of(size) -> str:
     return code[tuple(np.round(np.asarray(size, dtype=float), 3))]
 
 
+def rounds_ns(fn, rounds: int) -> list[float]:
+    """Wall time [ns] of each of `rounds` calls of fn(), in order (their spread: what the
+    machine's load did to the figure in this run)."""
+    out = []
+    for _ in range(rounds):
+        t0 = time.perf_counter_ns()
+        fn()
+        out.append(float(time.perf_counter_ns() - t0))
+    return out
+
+
 def drake_point_pair_cost(singles, rounds: int = ROUNDS) -> dict:
-    """{"set_pose_and_query_s_per_pair", "kernel_s_per_pair"}: Drake's point-pair penetration
-    query on the pair scenes the labels use (learned_contact.data.labels), pose set per call, and the
-    query alone on an already-posed scene (the first pose)."""
+    """{"set_pose_and_query_s_per_pair", "kernel_s_per_pair", "set_pose_and_query_rounds_s_per_pair"}:
+    Drake's point-pair penetration query on the pair scenes the labels use
+    (learned_contact.data.labels), pose set per call (the fastest round, and every round's
+    figure in order: the spread of the reference in this run), and the query alone on an
+    already-posed scene (the first pose)."""
     scenes = [pair_scene(_type_of(a), _type_of(b)) for _, _, a, b in singles]
     for scene, (p, R, _, _) in zip(scenes[:3], singles):  # build and warm
         posed_query(scene, R, p).ComputePointPairPenetration()
     query = posed_query(scenes[0], singles[0][1], singles[0][0])
-    return {"set_pose_and_query_s_per_pair": per_pair_s(
-                lambda: [posed_query(s, R, p).ComputePointPairPenetration() for s, (p, R, _, _) in zip(scenes, singles)],
-                len(singles), rounds),
+
+    def every_pose():
+        return [posed_query(s, R, p).ComputePointPairPenetration() for s, (p, R, _, _) in zip(scenes, singles)]
+
+    every_pose()  # one untimed round: every scene touched once, so the rounds' spread is the machine's, not first use
+    each = [ns * 1e-9 / len(singles) for ns in rounds_ns(every_pose, rounds)]
+    return {"set_pose_and_query_s_per_pair": min(each), "set_pose_and_query_rounds_s_per_pair": each,
             "kernel_s_per_pair": per_pair_s(lambda: [query.ComputePointPairPenetration() for _ in range(1000)], 1000,
                                             rounds)}
 

@@ -3,14 +3,16 @@
 `resolve(spec)` loads the predictor (learned_contact.sources.load_predictor: a bad file fails
 here, WeightsError) and returns a BenchModel that every section of the bench takes: its spec
 (the string, for what must name it: a scene's effect config, a fresh process's first call),
-its label, kind and name, the loaded predictor and the container sizes it declares
+its label (an ONNX model's metadata `name`, else the spec's short name: label_of), kind and name, the loaded predictor and the container sizes it declares
 (`supported_sizes`, (k, 3) full extents [m]) with the shipped container types they are.
 """
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
+import re
 
 import numpy as np
 
@@ -67,9 +69,26 @@ def resolve(model) -> BenchModel:
     spec = str(model)
     predictor = load_predictor(spec)
     sizes = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
-    return BenchModel(spec=spec, label=label(spec), kind=getattr(predictor, "kind", "?"),
-                      name=getattr(predictor, "name", label(spec)), predictor=predictor, declared_sizes=sizes,
-                      types=types_of_sizes(sizes))
+    kind, name = getattr(predictor, "kind", "?"), getattr(predictor, "name", label(spec))
+    return BenchModel(spec=spec, label=label_of(spec, kind, name), kind=kind, name=name, predictor=predictor,
+                      declared_sizes=sizes, types=types_of_sizes(sizes))
+
+
+def label_of(spec: str, kind: str, name: str | None) -> str:
+    """The model's label on the bench: an ONNX model's metadata `name` (docs/bench.md's contract;
+    the loader falls back to the file's stem without one), made file-name safe; any other source's
+    learned_contact.sources.label (the shipped name, the Python attribute, the weights file's stem)."""
+    if kind == "onnx" and name:
+        return re.sub(r"[^A-Za-z0-9_.+-]", "_", str(name)).strip("._") or label(spec)
+    return label(spec)
+
+
+def distinct_labels(models: list) -> list:
+    """The BenchModels with distinct labels: models whose metadata names collide are labelled by
+    their file's stem instead (learned_contact.sources.label); a collision left after that is the
+    caller's to refuse."""
+    counts = collections.Counter(m.label for m in models)
+    return [dataclasses.replace(m, label=label(m.spec)) if counts[m.label] > 1 else m for m in models]
 
 
 @functools.lru_cache(maxsize=None)

@@ -1,6 +1,7 @@
 """The bench's files: bench.json (the data `bench` returns), summary.md and a
-self-contained index.html (leaderboard first, then accuracy, cost, scenes; plots
-embedded), written together into a temporary directory renamed into place on success."""
+self-contained index.html (the first screen's verdict table first: first_screen.py; then the
+leaderboard, accuracy with its plot: plots.py, cost, scenes; plots embedded), written together
+into a temporary directory renamed into place on success."""
 
 from __future__ import annotations
 
@@ -8,9 +9,10 @@ import json
 import math
 from pathlib import Path
 
+from testbed.bench import first_screen, plots
 from testbed.bench.step_cost import ISSUE_TARGET, WHY
 from testbed.bench.yard_budget import budget_section
-from testbed.document import Bullets, Figure, Section, Text, Verdict, png, pyplot, table, to_html, to_markdown
+from testbed.document import Bullets, Figure, Section, Text, Verdict, table, to_html, to_markdown
 from testbed.gates.closed_loop import DISCRIMINATION
 from testbed.provenance import line as provenance_line
 from testbed.records import atomic_directory
@@ -74,27 +76,7 @@ def _accuracy(data: dict) -> Section:
         table(["predictor", "set", "poses", "point median [cm]", "p95 [cm]", "p99 [cm]", "normal median [deg]",
                "p95 [deg]", "p99 [deg]", "point median vs prior", "point p95 vs prior", "truth gap median [cm]",
                "point median vs one-point [cm]"], rows),
-        _plot(data)], order=2)
-
-
-def _plot(data: dict) -> Figure:
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
-    for spec in data["leaderboard"]:
-        e = data["predictors"][spec]
-        sets = e["accuracy"]["sets"]
-        if "stacking" in sets:
-            axes[0].scatter(e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100, s=40)
-            axes[0].annotate(e["label"], (e["cost"]["batched_s_per_pair"] * 1e6, sets["stacking"]["point_p95_m"] * 100))
-        axes[1].plot(list(sets), [f["point_median_m"] * 100 for f in sets.values()], "o-", label=e["label"])
-    drake = data["references"]["drake_point_pair_set_pose_and_query_s_per_pair"] * 1e6
-    axes[0].axvline(drake, color="grey", ls="--", label="Drake point-pair query")
-    axes[0].set(xscale="log", xlabel="cost per pair, batched [us]", ylabel="stacking point error p95 [cm]",
-                title="accuracy against cost")
-    axes[0].legend(fontsize=8)
-    axes[1].set(yscale="log", ylabel="point error median [cm]", title="point error per pose set")
-    axes[1].legend(fontsize=8)
-    return Figure("bench_accuracy_cost.png", "accuracy against cost, and point error per pose set", png(fig))
+        plots.figure(data)], order=2)
 
 
 def _share(total, alone) -> str:
@@ -304,8 +286,12 @@ def _step_cost(rows: dict) -> list:
 
 
 def sections(data: dict) -> list[Section]:
+    """The report of bench.json `data`: the first screen (the short verdict, the verdict table of
+    first_screen.py, what its costs are, each model's verdict line, the sizes declared, where it
+    was measured), then the leaderboard, accuracy, force, cost, yard budget and scenes."""
     good = all(data["predictors"][s]["good_enough"] for s in (data.get("judged") or data["leaderboard"]))
-    head = Section(None, [Verdict(good, " | ".join(verdict_lines(data))), *_declared(data),
+    head = Section(None, [Verdict(good, first_screen.headline_text(data)), first_screen.verdict_table(data),
+                          Text(first_screen.note(data)), Bullets(tuple(verdict_lines(data))), *_declared(data),
                           *([Text(provenance_line(data["provenance"]))] if "provenance" in data else [])], order=0)
     budget = [budget_section(data["yard_budget"], order=3)] if data.get("yard_budget") else []  # after the cost
     return [head, _leaderboard(data), _accuracy(data), *_force(data), _cost(data), *budget, _scenes(data)]

@@ -1,7 +1,7 @@
 """`bench(specs)`: judge predictors side by side (the Python API behind `testbed bench`).
 
     from testbed.bench import bench
-    data = bench(["improved", "paper", "my_model.onnx"], quick=True, out_dir="reports/bench")
+    data = bench(["my_model.onnx"], quick=True, out_dir="reports/bench")  # + improved and paper beside it
 
 Returns the dict written to bench.json: {"schema", "quick", "seed", "predictors": {spec:
 {"label", "kind", "name", "sizes" (what it declares and what that excludes: sizes_entry),
@@ -29,7 +29,7 @@ from learned_contact.sources import SHIPPED_NAMES
 from testbed.bench.accuracy import accuracy, pose_sets
 from testbed.bench.cost import cost_table
 from testbed.bench.force import force_section, own_force_figures, step_cost_rows
-from testbed.bench.model import BenchModel, resolve, uncovered as _uncovered
+from testbed.bench.model import BenchModel, distinct_labels, resolve, uncovered as _uncovered
 from testbed.bench.report import write_bench
 from testbed.bench.scenes import (
     CLOSED_SCENES,
@@ -154,15 +154,25 @@ def _sets_per_types(models, seed: int, n: int, workers: int, say) -> dict:
     return out
 
 
-def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: int = 0, workers: int = 2,
-          progress: bool = True) -> dict:
-    """Judges each predictor in `specs` (learned_contact.sources strings) the same way; see
-    the module docstring. Writes bench.json, summary.md and index.html to out_dir when given."""
+def with_references(specs, references: bool = True) -> list[str]:
+    """The specs a bench runs: `specs` (learned_contact.sources strings, each once, in order;
+    none: the shipped predictors), then, when `references`, every shipped predictor not named
+    (the reference lines beside a user's model: README's promise)."""
     specs = list(dict.fromkeys(str(s) for s in specs)) or list(DEFAULT_PREDICTORS)
-    models = [resolve(s) for s in specs]  # every model loaded (and checked) once, before anything runs
+    return specs + [s for s in SHIPPED_NAMES if s not in specs] if references else specs
+
+
+def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: int = 0, workers: int = 2,
+          progress: bool = True, references: bool = True) -> dict:
+    """Judges each predictor in `specs` (learned_contact.sources strings) the same way, and with
+    `references` every shipped predictor not named beside them (with_references); see the module
+    docstring. Writes bench.json, summary.md and index.html to out_dir when given."""
+    named, specs = with_references(specs, False), with_references(specs, references)
+    models = distinct_labels([resolve(s) for s in specs])  # every model loaded (and checked) once, before anything runs
     labels = [m.label for m in models]
     if len(set(labels)) != len(labels):
-        raise TestbedError(f"predictors {specs}: two have the same label {labels}; give them distinct file names")
+        raise TestbedError(f"predictors {specs}: two have the same label {labels}; give them distinct file names "
+                           "(or distinct metadata names)")
     say = (lambda msg: print(f"bench: {msg}", flush=True)) if progress else (lambda msg: None)
     t0 = time.perf_counter()
     n = N_POSES
@@ -197,7 +207,7 @@ def bench(specs=DEFAULT_PREDICTORS, *, quick: bool = False, out_dir=None, seed: 
         entries[s]["known_limits"] = known_limits(entries[s])
     board = sorted(specs, key=lambda s: _score(entries[s]))
     out = {"schema": SCHEMA, "quick": quick, "seed": seed, "poses_per_set": n, "predictors": entries,
-           "references": costs["references"], "force": force, "yard_budget": budget, "leaderboard": board, "judged": judged(specs),
+           "references": costs["references"], "force": force, "yard_budget": budget, "leaderboard": board, "judged": judged(named),
            "provenance": provenance(), "wall_s": time.perf_counter() - t0}
     if out_dir is not None:
         write_bench(Path(out_dir), out)

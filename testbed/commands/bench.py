@@ -21,6 +21,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", help="output directory (default reports/bench/<time>)")
     parser.add_argument("--workers", type=int, default=2, help="processes labelling the held-out poses (default 2)")
     parser.add_argument("--seed", type=int, default=0, help="held-out seed (the gates use 0)")
+    parser.add_argument("--no-references", action="store_true",
+                        help="judge only the models named (default: the shipped predictors not named run beside them "
+                             "as reference rows)")
 
 
 def run(args) -> int:
@@ -31,7 +34,7 @@ def run(args) -> int:
         raise TestbedError(f"--workers: expected at least 1, got {args.workers}")
     out = Path(args.out) if args.out else Path("reports") / "bench" / timestamp()
     data = bench(args.predictors or list(sources.SHIPPED_NAMES), quick=args.quick, out_dir=out, seed=args.seed,
-                 workers=args.workers)
+                 workers=args.workers, references=not args.no_references)
     from testbed.bench.report import headline
 
     good, lines = headline(data)

@@ -29,7 +29,7 @@ def quick_bench(centre_line, tmp_path_factory):
     from testbed.bench import bench
 
     out = tmp_path_factory.mktemp("bench") / "out"
-    return bench(["improved", centre_line, "bench_models:GeometricModel"], quick=True, out_dir=out,
+    return bench(["improved", centre_line, "bench_models:GeometricModel"], quick=True, out_dir=out, references=False,
                  progress=False), out
 
 

@@ -58,6 +58,9 @@ def test_the_own_call_answers_what_the_model_answers(tiny):
 def test_the_cost_table_carries_the_models_own_cost_and_the_wrappers_share(costs, tiny):
     refs = costs["references"]
     drake = refs["drake_point_pair_set_pose_and_query_s_per_pair"]
+    # the reference's every round is kept (its spread on the first screen); the ratios read the fastest
+    rounds = refs["drake_point_pair_rounds_s_per_pair"]
+    assert len(rounds) >= 5 and min(rounds) == drake and all(r > 0 for r in rounds)
     for spec in (tiny, PYTHON_MODEL):
         c = costs["predictors"][spec]
         for how in ("single", "batched"):

@@ -60,7 +60,7 @@ def sized_bench(tmp_path_factory):
     from testbed.bench import bench
 
     out = tmp_path_factory.mktemp("bench") / "out"
-    return bench(["improved", FORTY], quick=True, out_dir=out, progress=False), out
+    return bench(["improved", FORTY], quick=True, out_dir=out, progress=False, references=False), out
 
 
 def test_a_forty_foot_model_is_judged_as_fully_within_its_sizes(sized_bench):

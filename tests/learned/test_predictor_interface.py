@@ -140,7 +140,7 @@ def test_corrupt_and_missing_files(tmp_path):
     with pytest.raises(WeightsError, match="not found"):
         load_predictor(tmp_path / "absent.npz")
     with pytest.raises(WeightsError, match="not found"):
-        load_predictor("no-such-predictor-name")
+        load_predictor(tmp_path / "absent" / "weights")  # a path: the file is not found
 
 
 def test_shipped_meta_is_json():

@@ -115,10 +115,10 @@ def report_sections(study: dict) -> list[Section]:
                      _f(r.get("final_position_error_m"), ".3f", 1e3), r["status"] + (f": {r['why']}" if r["why"] else "")])
     pass_heads = [f"exponent, pass {p}" for p in sorted(passes)]
     return [
-        Section("What a yard of N containers costs", [Text(_key(study)), Text(runs), table(
+        Section("What a yard of N containers costs", [table(
             ["model", "yard", *pass_heads, "exponent, passes pooled", f"per step at the largest N ({config.clock})",
              "x real time there",
-             "not ok"], fits)], order=10),
+             "not ok"], fits), Text(_key(study)), Text(runs)], order=10),
         Section("Targets", [Text("Measured in this run, on this machine (timings are ratios within one run: other work on "
                                  "a shared machine slows every cell)."),
                             table(["target", "measured", "met"], [[x["target"], x["measured"], {True: "yes", False: "NO", None: "-"}[x["met"]]]
@@ -140,8 +140,29 @@ def report_sections(study: dict) -> list[Section]:
 
 
 def cost_chart(rows: list[dict], fits: dict, config) -> bytes:
-    """PNG: us per step against N (log-log), a curve per model, yard kind (settled solid, crane
-    dotted) and pass, labelled with the passes' pooled exponent, and the real-time line."""
+    """PNG of cost_figure."""
+    return png(cost_figure(rows, fits, config))
+
+
+def log_ticks(axis, low: float, high: float) -> None:
+    """Labels a log axis spanning [low, high] in plain numbers ('500', '2000', '0.5') at 1, 2 and
+    5 of each decade, or at every integer multiple when that leaves fewer than 3 ticks inside
+    (a range under about a decade: matplotlib's default then labels one tick or none)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    for subs in ((1.0, 2.0, 5.0), tuple(float(k) for k in range(1, 10))):
+        locator = LogLocator(base=10, subs=subs, numticks=30)
+        if sum(low <= t <= high for t in locator.tick_values(low, high)) >= 3:
+            break
+    axis.set_major_locator(locator)
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
+def cost_figure(rows: list[dict], fits: dict, config):
+    """The matplotlib figure: us per step against N (log-log), a curve per model, yard kind
+    (settled solid, crane dotted) and pass, labelled with the passes' pooled exponent, and the
+    real-time line; the y ticks labelled (log_ticks)."""
     key = CLOCKS[config.clock][0]
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(8, 5.5))
@@ -155,6 +176,8 @@ def cost_chart(rows: list[dict], fits: dict, config) -> bytes:
                 if pts:
                     ax.plot(*zip(*pts), style, label=name, color=f"C{i}", alpha=0.8)
                     name = None
+    from matplotlib.ticker import NullLocator
+
     h_us = 1e6 * config.time_step
     ax.axhline(h_us, color="k", lw=1, ls="--", label=f"real time ({config.time_step * 1e3:g} ms step)")
     ax.set(xscale="log", yscale="log", xlabel="containers N", ylabel=f"{config.clock} time per step [us]",
@@ -162,10 +185,13 @@ def cost_chart(rows: list[dict], fits: dict, config) -> bytes:
     sizes = sorted({r["n"] for r in rows})
     if sizes:
         ax.set_xticks(sizes, [str(n) for n in sizes])
-    ax.minorticks_off()
+    ax.xaxis.set_minor_locator(NullLocator())
+    low, high = ax.get_ylim()
+    log_ticks(ax.yaxis, low, high)
+    ax.set_ylim(low, high)
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=7)
-    return png(fig)
+    return fig
 
 
 def write_report(study: dict, out) -> list[Path]:
@@ -201,4 +227,4 @@ def summary_lines(study: dict) -> list[str]:
     return lines
 
 
-__all__ = ["TITLE", "cost_chart", "report_sections", "summary_lines", "write_report"]
+__all__ = ["TITLE", "cost_chart", "cost_figure", "log_ticks", "report_sections", "summary_lines", "write_report"]
