@@ -317,6 +317,10 @@ class CraneEffect(Effect):
 
     def check(self, effects) -> None:
         super().check(effects)
+        if "deck_motion" in effects:  # the ropes hang from sheaves fixed in W; under deck_motion W is the deck's frame
+            raise self.fail("", "cannot run with effects.deck_motion: the crane's sheaves would ride the rolling deck's "
+                            "frame (a ship's own crane), and a quay crane's rope anchor fixed in the world over a "
+                            "rolling bay is not modelled; drop one of the two effects")
         names = {c.name: c for c in self.scenario.containers}
         if self.config.container not in names:
             raise self.fail("container", f"{self.config.container!r} is not a container in this scene; "

@@ -33,6 +33,10 @@ The containers run at the learned law's modulus (law_modulus: the scene's
 effects.contact.hydroelastic_modulus, else 1e8 Pa) for the quay as for the law, as the
 Drake-hosted loop does; compare judges it against Drake at that modulus.
 
+Sleeping (sleep.py, on with the scene's learned_dynamics sleeping): rested islands sleep in MuJoCo
+itself (mjENBL_SLEEP, +0.0 applied rows), and while every container sleeps the learned step is not
+called; summary['mujoco_sleep'] counts it (effects_s includes its bookkeeping).
+
 Costs (summary['cost'], [s] over the timed steps): mujoco_s (mj_step1 + mj_step2), broad_s
 (state extraction, broad phase, near pairs, gather), predict_s (the predictor's call),
 law_s (force law, anchors, xfrc_applied), effects_s (wind, the crane's ropes). Recording (the
@@ -56,6 +60,7 @@ from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, check_supported, mujoco_module
 from testbed.engines.mujoco.run import MujocoRun, _ContactReducer, steps_table, trajectory_of
+from testbed.engines.mujoco_learned.sleep import HostSleep
 from testbed.errors import ScenarioError
 from testbed.geometry.boxes import box_box_signed_distance
 from testbed.scenario import validate_scenario
@@ -172,6 +177,8 @@ class LearnedContact:
         self.step = ContactStep(self.size, self.free, self.mass, self.I_Bo, self.type_index, self.kappa_tt, self.cfg,
                                 self.mu, self.h, self.predictor, NEAR, force_scale=effect.modulus / FORCE_MODULUS)
         self._last = None  # the latest step's candidate pairs once read (see last)
+        self.idle = False  # set by the loop for a step with every container asleep in MuJoCo (sleep.py): apply skips
+        self._idle = None  # an idle step's row of the step's counters (steps, calls, asked, reused, islands, ...)
         self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
 
     def reset(self) -> None:
@@ -187,6 +194,23 @@ class LearnedContact:
             self._last = self.step.pairs()
         return self._last
 
+    def _idle_row(self) -> np.ndarray:
+        """What an idle step adds to step.cost[3:]: one step, nothing asked, every candidate pair
+        reused, every island and every free body with a candidate pair asleep (the latest step's)."""
+        if self._idle is None:
+            ia, ib, _ = self.step.touching()
+            both = np.concatenate([ia, ib])
+            islands = self.step.sleep_counts()["islands"]
+            self._idle = np.array([1, 0, 0, self.step.k, islands, islands, len(np.unique(both[self.free[both]]))], float)
+        return self._idle
+
+    def sleep_counts(self) -> dict:
+        """The latest step's sleeping figures (ContactStep.sleep_counts), those of _idle_row on an idle step."""
+        if not self.idle:
+            return self.step.sleep_counts()
+        row = self._idle_row()
+        return dict(zip(("asked", "reused", "islands", "islands_asleep", "bodies_asleep"), (int(x) for x in row[2:])))
+
     def state(self, data) -> tuple:
         """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
         W from MuJoCo's data after mj_step1 (xpos, xmat at the step's state; qvel: v_W, w_C)."""
@@ -200,7 +224,13 @@ class LearnedContact:
         return bool(np.any(((ia == container) | (ib == container)) & (fn > 0)))
 
     def apply(self, data) -> None:
-        """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs."""
+        """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs;
+        with idle set (every container asleep in MuJoCo, no load) counts the step and writes nothing."""
+        if self.idle:
+            self.costs[3] += 1
+            self.step.cost[3:] += self._idle_row()
+            return
+        self._idle = None
         t0 = time.perf_counter()
         p, R, w, v = self.state(data)
         t1 = time.perf_counter()
@@ -237,14 +267,15 @@ class LearnedContact:
 
 
 def simulate(scenario, *, duration: float | None = None, predictor: str | None = None, record_every: int = 1,
-             source: object = "<scenario>", contact: type | None = None) -> LearnedRun:
+             source: object = "<scenario>", contact: type | None = None, sleep: bool | None = None) -> LearnedRun:
     """Runs `scenario` for `duration` [s] (None: the scene's) with MuJoCo stepping the bodies
     and `predictor` deciding container contact (see the module docstring); records every
     `record_every` steps. contact: the class that applies the learned contact (None:
     LearnedContact; a subclass may watch the run from inside: its `apply` is called once a
     warm-up step, then once a step after mj_step1: the scale study's window clock). Raises
     UnsupportedSceneError before anything runs; a run whose state turns non-finite stops there
-    (trajectory.error set)."""
+    (trajectory.error set). sleep: resting islands asleep in MuJoCo (sleep.py; None: the scene's
+    learned_dynamics sleeping, enabled and mujoco_trees; False: always awake, MuJoCo's sleeping off)."""
 
     mj = mujoco_module()
     prepared = prepare(scenario, predictor, source)
@@ -274,6 +305,10 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
                               int(body_ids[j]), model.geom(tr.free_names[j]).id, int(qadr[j]), int(vadr[j]))
         j_crane = j
     reducer = _ContactReducer(model, tr.body_names)
+    cfg = law.step.sleeping
+    sleeper = HostSleep(mj, model, body_ids, [list(specs).index(n) for n in tr.free_names], law.n, cfg, h,
+                        reducer, [tr.body_names.index(n) for n in tr.free_names]) if (
+        (cfg.enabled and cfg.mujoco_trees) if sleep is None else sleep) else None
     # the predictor's first call (a Python model's imports, caches) outside the timed steps
     mj.mj_step1(model, data)
     law.apply(data)
@@ -286,11 +321,14 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     mj.mj_forward(model, data)
     qpos, qvel, index = [data.qpos[qidx].copy()], [data.qvel[vidx].copy()], [0]
     mujoco_s, effects_s, record_s, steps_done, diverged = 0.0, 0.0, 0.0, 0, False
+    badqacc = int(mj.mjtWarning.mjWARN_BADQACC)
     for i in range(n_steps):
         t0 = time.perf_counter()
         mj.mj_step1(model, data)
         t1 = time.perf_counter()
+        skip = law.idle = sleeper is not None and sleeper.skip_learned(data)
         law.apply(data)
+        learned = None if sleeper is None else (sleeper.no_rows if skip else data.xfrc_applied[body_ids])
         t2 = time.perf_counter()
         if wind is not None:
             data.xfrc_applied[body_ids] += wind.mujoco_rows(data.xmat[body_ids].reshape(-1, 3, 3), com_B, data.time)
@@ -298,19 +336,21 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
             data.xfrc_applied[body_ids] += deck.mujoco_rows(data.qpos[qidx], data.qvel[vidx], data.time)
         if crane is not None:
             crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
+        if sleeper is not None:
+            sleeper.settle(data, learned, None if skip else law.step.touching)
         t3 = time.perf_counter()
         mj.mj_step2(model, data)
         t4 = time.perf_counter()
         mujoco_s += (t1 - t0) + (t4 - t3)
         effects_s += t3 - t2
         steps_done = i + 1
-        if (data.warning[int(mj.mjtWarning.mjWARN_BADQACC)].number > 0 or not np.all(np.isfinite(data.qpos))
+        if (data.warning[badqacc].number > 0 or not np.all(np.isfinite(data.qpos))
                 or np.abs(data.qvel).max(initial=0.0) > MAX_SPEED):
             diverged = True
             break
         if (i + 1) % every == 0:  # the rows of state i (Drake's contact_log logs steps every - 1, 2 every - 1, ...)
             t5 = time.perf_counter()
-            reducer.add(i, i * h, data)
+            (reducer if sleeper is None else sleeper).add(i, i * h, data)  # a sleeping tree's quay rows: held
             learned_rows = law.rows(i, i * h, offset)
             if learned_rows is not None:
                 reducer.rows.append(learned_rows)
@@ -345,6 +385,8 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         "max_penetration_m": float(max(0.0, -contacts["phi"].min())) if len(contacts["phi"]) else 0.0,
         "stability_max": max((r["explicit"] for r in prepared.effect.stability), default=0.0),
         "crane_release_time_s": None if crane is None else crane.release_time,
+        "mujoco_sleep": None if sleeper is None else {**sleeper.summary(), "trees_asleep_at_end": int(
+            sleeper.asleep(data).sum()), "trees": len(body_ids)},
     }
     run = MujocoRun(tables={"steps": steps, "contacts": contacts}, summary=summary, body_names=tr.body_names,
                     free_names=tr.free_names, mjcf=tr.mjcf)

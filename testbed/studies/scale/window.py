@@ -62,7 +62,7 @@ def _watched(base, watch: Watch):
             return float(data.energy[1])
 
         def _at_start(self, data) -> dict:
-            counts = self.step.sleep_counts()  # of the latest step: the settling's last
+            counts = self.sleep_counts()  # of the latest step: the settling's last (an idle one's: all asleep)
             _, _, _, v = self.state(data)
             free = int(self.free.sum())
             out = {"asleep_fraction": counts["bodies_asleep"] / free if free else float("nan"),
