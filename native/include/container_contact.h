@@ -49,7 +49,7 @@ extern "C" {
 #define CC_VERSION_MINOR 11
 #define CC_VERSION_PATCH 0
 #define CC_VERSION (CC_VERSION_MAJOR * 10000 + CC_VERSION_MINOR * 100 + CC_VERSION_PATCH)
-#define CC_ABI_VERSION 4 /* 4: cc_model.size_range; 3: cc_step_force_law_given; CC_API exports; 2: cc_step_sleep gained pair_reuse */
+#define CC_ABI_VERSION 4 /* 4: cc_model.size_range, cc_status_name; 3: cc_step_force_law_given; CC_API exports; 2: cc_step_sleep gained pair_reuse */
 #define CC_CHECK_VERSION() (cc_abi_version() == CC_ABI_VERSION)
 #define CC_MAX_LAYERS 8      /* hidden + output layers of one network */
 #define CC_MAX_DOMAIN 11     /* the resting expert's gate bounds */
@@ -70,6 +70,10 @@ enum cc_status {
   CC_BAD_ARGUMENT = 7,     /* a null pointer, a zero-row size array, an unknown model kind */
   CC_FILE_ERROR = 8        /* cc_model_load: the file is missing, unreadable or not the format */
 };
+
+/* The enumerator's name of a cc_status ("CC_OK", "CC_BAD_POSE", ...; "CC_UNKNOWN_STATUS" for any other
+ * value): a static string, for logs. */
+CC_API const char *cc_status_name(int status);
 
 enum cc_kind { CC_KIND_IMPROVED = 1, CC_KIND_PAPER = 2 };
 enum cc_activation { CC_TANH = 0, CC_SILU = 1, CC_RELU = 2 };

@@ -1,5 +1,6 @@
-/* defaults.c: the library's version and the testbed's defaults for the step's configuration
- * (container_contact.h: cc_version, cc_abi_version; container_contact_step.h: cc_step_default_params,
+/* defaults.c: the library's version, its status names and the testbed's defaults for the step's
+ * configuration (container_contact.h: cc_version, cc_abi_version, cc_status_name;
+ * container_contact_step.h: cc_step_default_params,
  * cc_step_default_sleep). The values are the testbed's LearnedDynamicsConfig and SleepingConfig
  * defaults (testbed/effects/learned_dynamics/); tests/native/test_c_api.py holds them equal. */
 #include "container_contact_step.h"
@@ -7,6 +8,14 @@
 int cc_version(void) { return CC_VERSION; }
 
 int cc_abi_version(void) { return CC_ABI_VERSION; }
+
+const char *cc_status_name(int status) {
+  static const char *const names[] = {"CC_OK", "CC_BAD_POSE", "CC_SIZE_A_UNSUPPORTED", "CC_SIZE_B_UNSUPPORTED",
+                                      "CC_SIZE_A_NOT_FINITE", "CC_SIZE_B_NOT_FINITE", "CC_BAD_ROTATION",
+                                      "CC_BAD_ARGUMENT", "CC_FILE_ERROR"};
+  if (status < 0 || status >= (int)(sizeof names / sizeof names[0])) return "CC_UNKNOWN_STATUS";
+  return names[status];
+}
 
 /* [Pa/m] the fitted pressure stiffness of every shipped type pair at 1e8 Pa (force_law.FITTED_KAPPA) */
 static const double DEFAULT_KAPPA = 4.1017e7;

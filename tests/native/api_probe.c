@@ -7,6 +7,7 @@
  * after the include): CC_CHECK_VERSION() must refuse the library. */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "container_contact_step.h"
 
@@ -47,9 +48,23 @@ static int answers(const char *weights) {
   return status == CC_OK ? 0 : 1;
 }
 
+/* 1 where cc_status_name names every enumerator as the header spells it (the names made from the
+ * enumerators themselves) and an unknown value as CC_UNKNOWN_STATUS, else 0. */
+#define NAMED(x) {x, #x}
+static int status_names_ok(void) {
+  const struct { int value; const char *name; } all[] = {
+      NAMED(CC_OK), NAMED(CC_BAD_POSE), NAMED(CC_SIZE_A_UNSUPPORTED), NAMED(CC_SIZE_B_UNSUPPORTED),
+      NAMED(CC_SIZE_A_NOT_FINITE), NAMED(CC_SIZE_B_NOT_FINITE), NAMED(CC_BAD_ROTATION), NAMED(CC_BAD_ARGUMENT),
+      NAMED(CC_FILE_ERROR)};
+  for (size_t i = 0; i < sizeof all / sizeof all[0]; ++i)
+    if (strcmp(cc_status_name(all[i].value), all[i].name) != 0) return 0;
+  return strcmp(cc_status_name(-1), "CC_UNKNOWN_STATUS") == 0 && strcmp(cc_status_name(9), "CC_UNKNOWN_STATUS") == 0;
+}
+
 int main(int argc, char **argv) {
   printf("version_header %d\nversion_library %d\nabi_header %d\nabi_library %d\ncheck %d\n", CC_VERSION, cc_version(),
          CC_ABI_VERSION, cc_abi_version(), CC_CHECK_VERSION() ? 1 : 0);
+  printf("status_names %d\n", status_names_ok());
   cc_step_params q = cc_step_default_params(0.001);
   printf("margin %.17g\nh %.17g\ndissipation %.17g\nmu %.17g\nstick_hw %.17g\nstick_zeta %.17g\nslip %.17g\n"
          "stiction %.17g\ntorsional %d\ngrid %d\nsweeps %d\nn_types %d\nkappa %.17g\n",

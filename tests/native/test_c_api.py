@@ -70,6 +70,7 @@ def _probe(build, tmp_path, *flags) -> tuple[int, dict]:
 def test_versions_and_the_check(build, tmp_path):
     rc, got = _probe(build, tmp_path)
     assert rc == 0 and got["check"] == 1
+    assert got["status_names"] == 1  # cc_status_name spells every enumerator as the header does
     assert got["version_library"] == got["version_header"] and got["abi_library"] == got["abi_header"]
     major, minor, patch = (int(x) for x in testbed.__version__.split(".")[:3])
     assert got["version_header"] == major * 10000 + minor * 100 + patch  # the C library is the package's

@@ -3,7 +3,7 @@ builds (`make -C native dll`), its export table and its answers run under Wine, 
 (native/examples/csharp: P/Invoke with Cdecl, UTF-8 paths, opaque model handles, mirrored step structs,
 Unity's frame conversion) compiled with Mono's mcs and run with mono against the Linux library.
 
-Measured 2026-12-07 (MinGW-w64 gcc 12, Wine 8.0, Mono 6.8): the DLL exports the 32 CC_API functions
+Measured 2026-12-07 (MinGW-w64 gcc 12, Wine 8.0, Mono 6.8): the DLL exports the CC_API functions (33)
 alone; its answers on three poses (cc_predict and cc_static_contact) are bit for bit the Linux
 library's; the C# program's predictions equal the Python predictor's to the last bit, its landing rests
 at 3e-14 m/s carrying the weight to 1e-13, and the Unity conversion matches S R S to 0 (det 1 to 2e-15).
@@ -125,6 +125,7 @@ def csharp(tmp_path_factory) -> dict[str, list[str]]:
 def test_csharp_checks_the_version_and_predicts_as_python(csharp):
     # "version V abi A": the library's ABI, which CheckVersion compared with its declarations' AbiVersion
     assert csharp["version"][2] == str(ABI_VERSION)
+    assert csharp["status_names"] == ["CC_OK", "CC_SIZE_A_UNSUPPORTED", "CC_UNKNOWN_STATUS"]  # the library's strings
     predictor = load_predictor("improved")
     for i, (p, rpy) in enumerate(POSES):
         R = rotation_from_rpy(np.array([rpy]))[0]

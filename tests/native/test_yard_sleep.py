@@ -44,6 +44,7 @@ def test_every_island_of_the_resting_yard_falls_asleep_and_stops_asking(figures)
     assert figures["wrench_rel"] == [0.0]  # a reused answer on the same poses is the same answer
 
 
+@pytest.mark.timing  # a ratio of clocks: serially, alone on the machine (tests/tiers.py)
 def test_the_asleep_step_is_cheaper_than_the_awake_one_side_by_side(figures):
     wall, cpu = figures["ratio"]
     assert figures["asleep_us"][0] < figures["awake_us"][0] and wall < 1.0, figures

@@ -47,6 +47,9 @@ namespace ContainerContact
 
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)] public static extern int cc_version();
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)] public static extern int cc_abi_version();
+        [DllImport(Library, CallingConvention = CallingConvention.Cdecl)] public static extern IntPtr cc_status_name(int status);
+        /// <summary>The status's enumerator name ("CC_OK", ...): a static ASCII string of the library's.</summary>
+        public static string StatusName(int status) => Marshal.PtrToStringAnsi(cc_status_name(status));
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)]
         public static extern int cc_model_load(byte[] pathUtf8, IntPtr model, byte[] err, UIntPtr errLen);
         [DllImport(Library, CallingConvention = CallingConvention.Cdecl)] public static extern void cc_model_free(IntPtr model);
@@ -133,7 +136,8 @@ namespace ContainerContact
                 var scene = new StepScene { NBodies = (UIntPtr)m, Size = pins[0].AddrOfPinnedObject(), Free = pins[1].AddrOfPinnedObject(),
                                             Mass = pins[2].AddrOfPinnedObject(), IBo = pins[3].AddrOfPinnedObject(), TypeIndex = IntPtr.Zero };
                 Handle = Native.cc_step_create(ref scene, ref parameters, out int status);
-                if (Handle == IntPtr.Zero) throw new ArgumentException($"cc_step_create refused the scene (status {status})");
+                if (Handle == IntPtr.Zero)
+                    throw new ArgumentException($"cc_step_create refused the scene ({Native.StatusName(status)})");
             }
             finally
             {

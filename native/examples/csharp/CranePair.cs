@@ -59,7 +59,8 @@ public static class CranePair
                 Array.Copy(poses[i].Item2, 0, R, 9 * i, 9);
             }
             int status = Native.cc_predict(model.Handle, (UIntPtr)n, p, R, Size20, (UIntPtr)1, Size20, (UIntPtr)1, point, normal, depth, out UIntPtr bad);
-            if (status != 0) { Console.Error.WriteLine($"cc_predict: status {status} at row {bad}"); return 1; }
+            if (status != 0) { Console.Error.WriteLine($"cc_predict: {Native.StatusName(status)} at row {bad}"); return 1; }
+            Console.WriteLine($"status_names {Native.StatusName(0)} {Native.StatusName(2)} {Native.StatusName(99)}");
             for (int i = 0; i < n; ++i)
                 Console.WriteLine($"predict{i} {F(point[3 * i])} {F(point[3 * i + 1])} {F(point[3 * i + 2])} " +
                                   $"{F(normal[3 * i])} {F(normal[3 * i + 1])} {F(normal[3 * i + 2])} {F(depth[i])}");
