@@ -1,8 +1,8 @@
 """A campaign's sample runs, random samples or a worst-case search's generations alike: each sample's record
 kept in the out dir where one is there (the same overrides, candidate and duration), the others run through
-the executor (testbed.validation.executors.map_calls: a local process pool or Ray; each one checked as a
-scene file and refused with its field and drawn value, else judged: sample.run_sample) and written as it
-arrives; and the search's loop over them (search.maximise proposing, these runs answering)."""
+the executor (`map_calls`, validate's testbed.validation.executors.map_calls handed in by the command, a
+layer above: a local process pool or Ray; each one checked as a scene file and refused with its field and
+drawn value, else judged: sample.run_sample) and written as it arrives; and the search's loop over them (search.maximise proposing, these runs answering)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,6 @@ from testbed.campaign.sample import run_sample
 from testbed.campaign.verdict import WORST, summarise
 from testbed.records import json_default, write_atomic
 from testbed.safe_files import load_json
-from testbed.validation.executors import map_calls
 
 MAX_RECORD_BYTES = 2**20  # [bytes] one sample's record read back (they are a few kilobytes)
 # summarise()'s figures that read the samples as a random draw: not a searched set's
@@ -26,10 +25,11 @@ class SampleRuns:
     """runs(samples) -> {index: record} (module docstring); `what` names a sample in the progress lines."""
 
     def __init__(self, folder: Path, family_file: Path, candidate: str, duration: float, *, total: int, what: str,
-                 executor: str, workers: int, address: str | None, quiet: bool):
+                 executor: str, workers: int, address: str | None, quiet: bool, map_calls):
         self.folder, self.family_file, self.candidate, self.duration = folder, family_file, candidate, duration
         self.total, self.what, self.quiet = total, what, quiet
         self.executor = {"executor": executor, "workers": workers, "address": address}
+        self.map_calls = map_calls  # map_calls(fn, items, done, executor=, workers=, address=)
         self.finished: set = set()
         self.reused = 0  # records found in the folder, not rerun
 
@@ -64,7 +64,7 @@ class SampleRuns:
                 error = f", final error {1e3 * record['final_error_m']:.3g} mm" if record["status"] == "ok" else ""
                 print(f"  {self.what} {record['index']}: {state}{error} ({len(self.finished)} of {self.total})", flush=True)
 
-        map_calls(run_sample, todo, done, **self.executor)
+        self.map_calls(run_sample, todo, done, **self.executor)
         return records
 
 

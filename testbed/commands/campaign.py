@@ -69,6 +69,7 @@ def run(args) -> int:
     from testbed.campaign.family import load_family
     from testbed.campaign.runs import SampleRuns, run_search
     from testbed.campaign.verdict import summarise
+    from testbed.validation.executors import map_calls  # validate's executors, handed in (a layer above)
 
     _check_search_options(args)
     if args.seed < 0:
@@ -104,7 +105,7 @@ def run(args) -> int:
     total = (args.budget or DEFAULT_BUDGET) if args.search else n
     runs = SampleRuns(out / ("search" if args.search else "samples"), path, args.predictor, duration, total=total,
                       what="run" if args.search else "sample", executor=args.executor, workers=args.workers,
-                      address=args.ray_address, quiet=args.quiet)
+                      address=args.ray_address, quiet=args.quiet, map_calls=map_calls)
     if args.search:  # the worst case searched for (testbed/campaign/search.py)
         population = args.population or search.default_population(total)
         settings["search"] = {"budget": total, "population": population, "objective": "final_error_m",

@@ -11,6 +11,8 @@ compare.json `verdict`, and the exit status `testbed compare` returns (`exit_sta
               it created energy beyond the truth's)                                   -> 3
   FAIL        it ran to the end and a gate failed                                    -> 3
   PASS        it ran to the end and every judged gate held                           -> 0
+              (a knife-edge scene of closed_loop.FAMILY_JUDGED has no final-pose gate here: the
+              verdict line says so and names the family whose campaign judges it)
   NOT JUDGED  the learned model made no contact decision (0 container-container
               pair-steps: one container, or none ever near another), so the twin runs
               are the same physics and their agreement says nothing of the predictor -> 0
@@ -26,7 +28,14 @@ closed-loop ones: a failed in-scene gate is a FAIL (exit status 3), as a failed 
 from __future__ import annotations
 
 from testbed.gates import format_value
-from testbed.gates.closed_loop import MIN_DRIFT_DURATION_S, RESTING_SCENES, case_result, judge as closed_loop_gates
+from testbed.gates.closed_loop import (
+    FAMILY_GATES,
+    FAMILY_JUDGED,
+    MIN_DRIFT_DURATION_S,
+    RESTING_SCENES,
+    case_result,
+    judge as closed_loop_gates,
+)
 from testbed.gates.in_scene import GATE_NAME as IN_SCENE_GATE, in_scene_gates
 
 PASS, FAIL, DIVERGED, NOT_JUDGED = "PASS", "FAIL", "DIVERGED", "NOT JUDGED"
@@ -50,6 +59,11 @@ def judge(figures: dict, directory, runs=None) -> dict:
         gates += scene_gates
         if not scene_gates:
             not_judged[IN_SCENE_GATE] = "no container pair was asked in Drake's hydroelastic run of the scene"
+    if figures["scene"] in FAMILY_JUDGED:
+        family, why = FAMILY_JUDGED[figures["scene"]]
+        for gate in FAMILY_GATES:
+            not_judged[gate] = (f"a knife-edge scene, where one trajectory is no reference ({why}); its family judges "
+                                f"the final pose: testbed campaign {family}")
     if not s["resting"]:
         not_judged["resting drift"] = f"not a scene that ends at rest; those are {', '.join(RESTING_SCENES)}"
     elif s["duration_s"] < MIN_DRIFT_DURATION_S:
@@ -145,6 +159,9 @@ def verdict_lines(f: dict) -> list[str]:
     if f.get("gates_known_limits"):
         counted += (f"; {len(f['gates_known_limits'])} passed only within pinned known limits, far outside the "
                     "bounds (see each gate)")
+    family = [g for g in FAMILY_GATES if g in f.get("gates_not_judged", {})]
+    if family:
+        counted += f"; the {' and '.join(family)} NOT judged here: {f['gates_not_judged'][family[0]].split(': ')[-1]}"
     lines.append(f"verdict: {f['verdict']}: {counted} (exit status {f['exit_status']})")
     return lines
 

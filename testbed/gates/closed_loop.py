@@ -56,23 +56,6 @@ TRUTH_PENETRATION_FACTOR = 1.25
 # figure stays in the band around the pinned one (worse, or much better, fails).
 # scene -> (why, {gate: (pinned figure, (low, high) band factors)}).
 KNOWN_LIMITS = {
-    "crane_edge_landing": (
-        "the load lands with its centre of mass over the stack's edge and tips off after the twistlocks "
-        "release, in the ground truth and in the closed loop alike: where it comes to rest is a balance-point "
-        "outcome (MuJoCo with matched contact, identical until the release, ends 6.5 m away too), and Drake's own "
-        "hydroelastic ground truth penetrates 39.5 mm on this edge-first landing, above the 20 mm bound. Since the "
-        "predictor integrates the edge strip's pressure exactly (0.6.0) while the discrete truth gives it 2/3 of its "
-        "rotational stiffness, the two tip the load differently off the knife edge (final angle 14.7 deg apart, "
-        "5.3 before); the continuous truth cannot judge it yet (the crane effect's output is an algebraic loop on a "
-        "continuous plant)",
-        {"final position": (1.008, (0.5, 2.0)), "final angle": (14.66, (0.5, 2.0))}),
-    "stack_slide_off": (
-        "the empty box tips off the loaded one's end edge at 8 m/s (1.1-1.5 s): a knife-edge contact whose "
-        "answer depends on the truth's mesh (testbed study truth: the discrete plant's tip differs from the "
-        "converged continuous plant's by 3 deg and 66 mm); against the discrete truth the scene declares the "
-        "learned run ends 67.4 mm further along a 9.3 m path and 1.51 deg apart; against the converged continuous "
-        "truth (1e-3 and 1e-4 agree to 0.1 mm) 42.4 mm and 0.03 deg",
-        {"final position": (0.0674, (0.5, 2.0)), "final angle": (1.512, (0.5, 2.0))}),
     "corner_drop": (
         "a loaded 20 ft box dropped corner-first: against the converged continuous truth the learned loop ends 25.5 mm "
         "and 0.83 deg away, Drake point contact 21.1 mm and 0.99 deg; the exact field force carries the corner and "
@@ -80,13 +63,26 @@ KNOWN_LIMITS = {
         "friction's model (without the loop's stick anchor, Coulomb like the truth's regularised friction, 17.1 mm; "
         "the anchor holds the stacks at rest)",
         {"final position": (0.0255, (0.5, 2.0)), "final angle": (0.826, (0.5, 2.0))}),
-    "ship_bay_open": (
-        "the boxes slide 1.2 m on average (1.64 m at most) across the greasy deck (mu 0.3) from the end of a 17 deg "
-        "roll, nearly at rest at 2.5 s (2.3 cm/s); the learned run ends 37.4 mm from the truth's: where a metre-long "
-        "frictional slide stops, every other gate passing (energy created 0 J once the deck's 820 kJ of work, "
-        "which friction dissipates, is counted)",
-        {"final position": (0.0374, (0.5, 2.0))}),
 }
+# Knife-edge scenes: each ends where a balance point sends it (its truth's own end moves metres, or tens
+# of mm, with a millimetre of start), so one trajectory's final position and angle judge nothing; those
+# two gates are left to the scene's family instead (testbed/families/<family>.yaml: `testbed validate`'s
+# campaign cases, the outcome agreement's 95 % Wilson lower end over samples about the balance point,
+# testbed/campaign/gates.py). The scene keeps its physical gates, which no balance point decides: no
+# divergence, the penetration (bound re-derived from the truth's where deeper), the energy created.
+# scene -> (family, why). They were pinned known limits (final position 1.008 m and angle 14.66 deg;
+# 67.4 mm and 1.51 deg; 37.4 mm).
+FAMILY_JUDGED = {
+    "crane_edge_landing": ("edge_landing", "the load lands with its centre of mass over the stack's edge: held or "
+                           "tipped off after the twistlocks release is a balance-point outcome (MuJoCo with matched "
+                           "contact, identical until the release, ends 6.5 m away too)"),
+    "stack_slide_off": ("slide_off", "the empty box tips off the loaded one's end edge at 8 m/s: a knife-edge contact "
+                        "whose end depends on the truth's own mesh (the discrete and the converged continuous truth "
+                        "end 66 mm and 3 deg apart)"),
+    "ship_bay_open": ("rolling_bay", "the boxes slide a metre across a greasy deck from the end of a roll: where a "
+                      "frictional slide stops, near the friction angle"),
+}
+FAMILY_GATES = ("final position", "final angle")  # the one-trajectory gates a family judges instead
 # Outcome gate on the scenes where the contact point decides whether a box holds or
 # tips: a run 'tips' when a free container's final orientation is more than TIP_ANGLE_DEG from its
 # initial one; the learned run must tip iff the truth's does. 5 deg lies between what holding
@@ -127,14 +123,16 @@ DEFAULT_SCENES = (("two_stack", 2.0), ("five_stack", 2.0), ("nine_mixed_stack", 
                   # the contact point / normal decides the outcome; ~4 s of worker time for the
                   # three (measured 2.2 + 0.8 + 0.6 s with improved and paper; the paper diverges early)
                   ("overhang_hold", 1.5), ("overhang_tip", 0.9), ("stack_slide_rest", 1.2),
-                  # a box sliding off another, landing on the quay (known limit above)
+                  # a box sliding off another, landing on the quay (its final pose: FAMILY_JUDGED below)
                   ("stack_slide_off", 3.0),
                   # yards that move: the empties sliding in a storm over laden tiers
                   ("yard_storm", 1.0),
                   # where the force away from aligned faces acts (tests/closed_loop/test_force_scenes.py): an
                   # edge striking a face at 2.7 m/s (the former Winkler law fails it: 1.1 deg), a load hanging
                   # pitched 1.5 deg landing heavy end first
-                  ("corner_strike", 2.0), ("crane_tilted_landing", 2.5))
+                  ("corner_strike", 2.0), ("crane_tilted_landing", 2.5),
+                  # sizes beyond 20 and 40 ft: a half height (a field twice as steep) resting off centre
+                  ("half_height_stack", 2.0))
 # Closed-loop scenes of the 'full' suite only, each with why the default leaves it out: the
 # default suite fits 10 minutes on 2 cores and was at 9 min 51 s before stack_slide_off and
 # yard_storm joined it (docs/results.md); those two cost 14.2 and 20.8 s of worker CPU per case
@@ -143,8 +141,10 @@ DEFAULT_SCENES = (("two_stack", 2.0), ("five_stack", 2.0), ("nine_mixed_stack", 
 FULL_EXTRA = (("corner_drop", 2.0), ("crane_yawed_landing", 2.5), ("yard_swing_strike", 3.0), ("yard_block_landing", 2.5),
               ("yard_small", 1.0), ("yard_wind", 2.0),
               ("yard_crane_slot", 13.5), ("yard_block", 1.0), ("ship_bay_roll", 2.5), ("ship_bay_open", 2.5),
-              ("ship_bay_large", 0.5))
+              ("ship_bay_large", 0.5), ("crane_45ft_landing", 4.0))
 FULL_EXTRA_WHY = {
+    "crane_45ft_landing": "cost: a crane scene of 4 s (about 33 s of CPU for truth and loop); the 45 ft sizes' "
+                          "accuracy is judged on held-out poses (testbed/bench/size_classes.py)",
     "corner_drop": "cost: its converged truth, Drake's continuous plant, takes ~80 s of CPU for the 2 s (the discrete "
                    "plant ends 34 mm from it)",
     "crane_yawed_landing": "cost for little: a crane scene of 2.5 s whose seated equilibrium decides (the former "
@@ -157,8 +157,8 @@ FULL_EXTRA_WHY = {
                        "container, the model decides only the stacks' static pairs",
     "yard_block": "cost (compare alone 159 s of CPU: 96 containers) for little: they only settle",
     "ship_bay_roll": "cost: compare alone 212 s of CPU (36 containers locked on a rolling, heaving deck for 2.5 s)",
-    "ship_bay_open": "cost: compare alone 93 s of CPU (18 containers sliding on a rolling deck for 2.5 s; known limit "
-                     "above)",
+    "ship_bay_open": "cost: compare alone 93 s of CPU (18 containers sliding on a rolling deck for 2.5 s; its final "
+                     "pose is its family's: FAMILY_JUDGED)",
     "ship_bay_large": "cost: compare alone 155 s of CPU (96 containers locked on a rolling, pitching, heaving deck "
                       "for 0.5 s)",
 }
@@ -262,6 +262,8 @@ def judge(result: dict, f: dict, name: str) -> list[Gate]:
     ]
     if result["scene"] in OUTCOME_SCENES and f.get("final_tilt_max_truth_deg") is not None:
         gates.append(_outcome(name, f))
+    if result["scene"] in FAMILY_JUDGED:
+        gates = [g for g in gates if g.name[len(name):] not in FAMILY_GATES]
     known = KNOWN_LIMITS.get(result["scene"])
     if known is not None:
         why, pins = known

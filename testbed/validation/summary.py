@@ -18,6 +18,7 @@ from testbed.document import Bullets, Section, Text, Verdict, table
 from testbed.engines import alternatives
 from testbed.gates.closed_loop import (
     EXCLUDED,
+    FAMILY_JUDGED,
     FINAL_ANGLE_TOL_DEG,
     FINAL_POSITION_TOL_M,
     FULL_EXTRA,
@@ -235,14 +236,17 @@ def _closed_verdict(runs) -> str:
     """'holds 11 of 12 scenes within the gates, 1 only within pinned known limits; diverges on 0'."""
     if not runs:
         return "-"
-    held, pinned, diverged = [], [], []
+    held, pinned, by_family, diverged = [], [], [], []
     for s, f in runs:
         gates = closed_loop_gates(s, f, "")
         if f["diverged"]:
             diverged.append(s["scene"])
         if gates and all(g.passed for g in gates):
-            (pinned if any(is_known_limit(g.to_dict()) for g in gates) else held).append(s["scene"])
+            (pinned if any(is_known_limit(g.to_dict()) for g in gates) else
+             by_family if s["scene"] in FAMILY_JUDGED else held).append(s["scene"])
     text = f"within the gates on {len(held)} of {len(runs)} scenes"
+    if by_family:
+        text += f", {len(by_family)} more within their physical gates, the final pose left to a family ({', '.join(by_family)})"
     if pinned:
         text += f", {len(pinned)} more only within pinned known limits ({', '.join(pinned)})"
     return text + f"; diverges on {len(diverged)}" + (f" ({', '.join(diverged)})" if 0 < len(diverged) <= 3 else "")

@@ -190,17 +190,17 @@ def test_the_plots_read_at_2_and_at_36_containers(run, request):
 
 
 def test_a_pass_within_pinned_known_limits_does_not_read_pass(two_stack, tmp_path):
-    """crane_edge_landing's pinned known limits judged on a synthetic twin run (verdict.judge, as
+    """corner_drop's pinned known limits judged on a synthetic twin run (verdict.judge, as
     tests/engines/test_compare_verdict.py does): a PASS that holds only within them shows as such
     in the verdict cell, the gates' result cells and the title, naming the pinned gates; the same
     run outside any pin reads PASS."""
     _, _, base = two_stack
-    pins = KNOWN_LIMITS["crane_edge_landing"][1]
+    pins = KNOWN_LIMITS["corner_drop"][1]
     t = np.linspace(0.0, 5.0, 11)
     still = np.tile([1.0, 0.0, 0.0, 0.0], (11, 5, 1))
     np.savez(tmp_path / "trajectories.npz", position_error=np.zeros((11, 5)), learned_time=t,
              learned_energy=np.zeros(11), truth_energy=np.zeros(11), learned_q_WB=still, truth_q_WB=still)
-    figures = {"scene": "crane_edge_landing", "duration_s": 5.0, "time_step_s": 1e-3, "potential_drop_max_J": 1e6,
+    figures = {"scene": "corner_drop", "duration_s": 5.0, "time_step_s": 1e-3, "potential_drop_max_J": 1e6,
                "diverged": False, "pair_steps_learned": 1000, "final_angle_error_max_deg": pins["final angle"][0],
                "max_penetration_m": 0.0457, "max_penetration_truth_m": 0.0395,
                "final_position_error_max_m": pins["final position"][0]}

@@ -159,26 +159,29 @@ def test_sections_render_to_markdown_and_html(closed_loop_result):
     assert "figures/engine_speed_accuracy.png" in md and "data:image/png;base64," in html
 
 
-def test_crane_edge_landing_known_limit_is_pinned_both_ways():
-    """The pinned closed-loop limit holds only inside its band: the measured 1.008 m final
-    error passes as a known limit, 3 m (worse) and 1 cm (the pin is stale) both fail, and
-    the unpinned gates of that scene stay plain."""
+def test_corner_drop_known_limit_is_pinned_both_ways():
+    """The pinned closed-loop limit holds only inside its band: the pinned final error passes as
+    a known limit, 3x it (worse) and a third of it (the pin is stale) both fail, and the unpinned
+    gates of that scene stay plain."""
+    from testbed.gates.closed_loop import KNOWN_LIMITS
     from testbed.validation.cases import registry
 
     kind = registry()["closed_loop"]
+    pins = KNOWN_LIMITS["corner_drop"][1]
+    at = pins["final position"][0]
 
     def record(final_m):
-        f = {"diverged": False, "final_position_error_max_m": final_m, "final_angle_error_max_deg": 14.66,
+        f = {"diverged": False, "final_position_error_max_m": final_m, "final_angle_error_max_deg": pins["final angle"][0],
              "max_penetration_m": 0.0457, "energy_gain_gated_J": 0.0}
-        return {"id": "closed-loop-crane_edge_landing", "result": {
-            "scene": "crane_edge_landing", "predictors": {"improved": f}, "energy_limit_J": 100.0,
-            "largest_potential_drop_J": 1e4, "resting": False, "duration_s": 5.0}}
+        return {"id": "closed-loop-corner_drop", "result": {
+            "scene": "corner_drop", "predictors": {"improved": f}, "energy_limit_J": 100.0,
+            "largest_potential_drop_J": 1e4, "resting": False, "duration_s": 2.0}}
 
     def verdict(final_m, key="final position"):
         return next(g.passed for g in kind.gates(record(final_m)) if key in g.name)
 
-    assert verdict(1.008) is True
-    assert verdict(3.0) is False
-    assert verdict(0.01) is False
-    names = [g.name for g in kind.gates(record(1.008))]
+    assert verdict(at) is True
+    assert verdict(3.0 * at) is False
+    assert verdict(at / 3.0) is False
+    names = [g.name for g in kind.gates(record(at))]
     assert any(n.endswith("no divergence") for n in names) and any("(known limit)" in n for n in names)

@@ -36,6 +36,7 @@ from testbed.gates.closed_loop import (
     DISCRIMINATION,
     DRIFT_TOL_M_PER_MIN,
     ENERGY_FRACTION,
+    FAMILY_JUDGED,
     FINAL_ANGLE_TOL_DEG,
     FINAL_POSITION_TOL_M,
     MAX_PENETRATION_M,
@@ -104,12 +105,15 @@ class ClosedLoopCase(CaseKind):
         held = [r["result"]["scene"] for r, g in judged if g and all(x.passed for x in g)
                 and r["result"]["scene"] not in pinned]
         failed = [r["result"]["scene"] for r, g in judged if g and not all(x.passed for x in g)]
+        by_family = [f"{s} ({FAMILY_JUDGED[s][0]})" for r in records if (s := r["result"]["scene"]) in FAMILY_JUDGED]
         speed = [r["result"]["predictors"][GATED]["speedup_vs_truth"] for r in records
                  if GATED in r["result"]["predictors"]]
         paper = [r["result"]["scene"] for r in records if r["result"]["predictors"].get("paper", {}).get("diverged")]
         head = (f"Closed loop: the improved predictor drives {len(held)} of {len(records)} scenes within its gates"
                 + (f" (fails: {', '.join(failed)})" if failed else "")
                 + (f"; {', '.join(pinned)} only within pinned known limits" if pinned else "")
+                + (f"; {', '.join(by_family)}: the final pose judged by the family's campaign (below), not on the one "
+                   "trajectory" if by_family else "")
                 + (f", at {_range(speed)}x the speed of Drake hydroelastic" if speed else "")
                 + f"; the paper's MLP diverges on {len(paper)} of {len(records)}"
                 + (f" ({', '.join(paper)})" if paper else "") + ".")
