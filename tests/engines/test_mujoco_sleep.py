@@ -4,7 +4,9 @@ lands on, and the final poses with sleeping agree with the always-awake run's wi
 0.05 mm (mean); where nothing may sleep (a rolling deck loads every box) the two runs are the same bits.
 
 Measured 2026-12-07 (2 shared cores): a 25 t load hoisted onto a 24-box yard that fell asleep first
-(test_a_landing_wakes_its_stack_...): 1.4e-4 mm max, 6.0e-5 mm mean apart from the awake run.
+(test_a_landing_wakes_its_stack_...): 1.4e-4 mm max, 6.0e-5 mm mean apart from the awake run. While some
+trees sleep the learned step runs on the awake containers and their near neighbours alone (subset.py):
+that landing steps 10 of its 25 bodies a step on average, and ends where the whole step's run does.
 """
 
 import dataclasses
@@ -19,6 +21,7 @@ from testbed.scenario import load_scenario
 mujoco = pytest.importorskip("mujoco")
 
 from testbed.engines.mujoco_learned.loop import LearnedContact, simulate  # noqa: E402
+from testbed.engines.mujoco_learned.subset import Subset  # noqa: E402
 from testbed.studies.scale.settings import ScaleConfig  # noqa: E402
 from testbed.studies.scale.yard import top_name, yard_scenario  # noqa: E402
 
@@ -29,7 +32,7 @@ def _watched(record: dict):
     class Watched(LearnedContact):
         def __init__(self, prepared, model):
             super().__init__(prepared, model)
-            record["model"], record["asleep"] = model, []
+            record["model"], record["asleep"], record["law"] = model, [], self
             self._names = [c.name for c in prepared.learned.containers]
             record["names"] = self._names
 
@@ -61,12 +64,12 @@ def test_a_settled_yard_sleeps_in_mujoco_with_zero_byte_rows():
     assert not run.trajectory.error
 
 
-def _landing(sleep: bool, record: dict):
+def _landing(sleep: bool, record: dict, subset: bool | None = None):
     """A 24-box yard (4 tiers) that falls asleep while a 25 t load hangs 0.3 m above its middle stack for
     0.6 s; then the hoist lands it at 0.5 m/s and lets go."""
     config = dataclasses.replace(ScaleConfig(), crane_gap=0.3, crane_speed=0.5)
     scenario = yard_scenario(24, config, "crane", duration=2.0, hold=0.6)
-    run = simulate(scenario, duration=2.0, sleep=sleep, record_every=2000, contact=_watched(record))
+    run = simulate(scenario, duration=2.0, sleep=sleep, record_every=2000, contact=_watched(record), subset=subset)
     return run, top_name(24, config)
 
 
@@ -88,6 +91,32 @@ def test_a_landing_wakes_its_stack_and_ends_where_the_awake_run_does():
     d = np.linalg.norm(b.p_WB[-1] - a.p_WB[-1], axis=1)
     assert d.max() <= 1e-3 and d.mean() <= 5e-5, (d.max(), d.mean())
     assert asleep.summary["crane_release_time_s"] == awake.summary["crane_release_time_s"]
+    # the learned step ran on the awake part alone: fewer bodies than the yard holds, most steps
+    sleep = asleep.summary["mujoco_sleep"]
+    assert sleep["subset_steps"] > 1000 and sleep["learned_bodies_per_step"] < 0.5 * len(names), sleep
+    whole, _ = _landing(True, {}, subset=False)  # the old path: the whole step whenever it runs
+    assert "subset_steps" not in whole.summary["mujoco_sleep"]
+    d = np.linalg.norm(b.p_WB[-1] - whole.trajectory.p_WB[-1], axis=1)
+    assert d.max() <= 1e-3 and d.mean() <= 5e-5, (d.max(), d.mean())
+
+
+def test_the_held_state_goes_to_a_subset_and_back_bit_for_bit():
+    """Subset's remap of the held state (anchors, stuck flags, last normal forces, body histories) is lossless:
+    the whole step's held state moved onto a subset step and back is the same bits."""
+    record = {}
+    simulate(yard_scenario(24, ScaleConfig(), duration=0.05), sleep=False, record_every=50, contact=_watched(record))
+    law = record["law"]
+    keys, rows, history = law.step.held()
+    assert len(keys) > 10
+    part = Subset(law, None)
+    idx = np.flatnonzero(np.arange(law.n) % 3 != 0)  # two in three containers: pairs inside, across and outside
+    w = np.zeros(law.n, bool)
+    part.switch(idx, w)
+    assert part.sub.n == len(idx) and 0 < len(part.sub.held()[0]) < len(keys)
+    part.switch(None, w)
+    after = law.step.held()
+    for x, y in zip((keys, rows, history), after):
+        assert x.tobytes() == y.tobytes()
 
 
 def test_where_every_box_is_loaded_nothing_sleeps_and_the_runs_are_the_same():

@@ -35,7 +35,8 @@ Drake-hosted loop does; compare judges it against Drake at that modulus.
 
 Sleeping (sleep.py, on with the scene's learned_dynamics sleeping): rested islands sleep in MuJoCo
 itself (mjENBL_SLEEP, +0.0 applied rows), and while every container sleeps the learned step is not
-called; summary['mujoco_sleep'] counts it (effects_s includes its bookkeeping).
+called; while some sleep it runs on the awake containers and their near neighbours alone (subset.py,
+the held state remapped); summary['mujoco_sleep'] counts both (effects_s includes its bookkeeping).
 
 Costs (summary['cost'], [s] over the timed steps): mujoco_s (mj_step1 + mj_step2), broad_s
 (state extraction, broad phase, near pairs, gather), predict_s (the predictor's call),
@@ -51,23 +52,20 @@ import time
 
 import numpy as np
 
-from learned_contact.predictors.external import FORCE_MODULUS
 from testbed import variants
 from testbed.effects.deck_motion import build_law as deck_law
-from testbed.effects.learned_dynamics.step import NEAR, ContactStep, bodies_from_mujoco, wrench_to_mujoco
 from testbed.effects.wind import WindLaw
 from testbed.engines.base import UnsupportedSceneError
 from testbed.engines.mujoco.crane import CraneRopes
 from testbed.engines.mujoco.model import build_model, check_supported, mujoco_module
 from testbed.engines.mujoco.run import MujocoRun, _ContactReducer, steps_table, trajectory_of
+from testbed.engines.mujoco_learned.contact import MU_SDF, LearnedContact  # noqa: F401 - the loop's names
 from testbed.engines.mujoco_learned.sleep import HostSleep
 from testbed.errors import ScenarioError
-from testbed.geometry.boxes import box_box_signed_distance
 from testbed.scenario import validate_scenario
 from testbed.simulation import Trajectory
 
 MAX_SPEED = 100.0  # [m/s, rad/s] a state past this has blown up (no container in a yard moves so fast)
-MU_SDF = 0.4  # [-] the models' mu_dynamic, the Drake-hosted loop's default friction (effect.MU_SDF)
 
 
 class UnstableStepError(UnsupportedSceneError):
@@ -141,133 +139,9 @@ class _LearnedCrane(CraneRopes):
         return self._touching() or super()._in_contact(data)
 
 
-class LearnedContact:
-    """The learned contact of the containers of one MuJoCo model (see the module docstring):
-    the one contact step (step.ContactStep) on MuJoCo's arrays.
-
-    Arrays over the scene's containers (m, scene order): body (m,) MuJoCo body ids, free (m,),
-    half (m, 3) [m] half extents, mass (m,) [kg] (inf if fixed), I_Bo (m, 3, 3) [kg m^2]
-    about the body origin C in the body frame."""
-
-    def __init__(self, prepared: Prepared, model):
-        s, effect = prepared.learned, prepared.effect
-        specs = s.containers
-        self.cfg, self.predictor = effect.config, effect.predictor
-        self.h = s.plant.time_step
-        self.n = len(specs)
-        self.body = np.array([model.body(c.name).id for c in specs], dtype=np.int64)
-        self.free = np.array([not c.fixed for c in specs])
-        self.free_idx = np.flatnonzero(self.free)
-        self.dof = np.array([model.jnt_dofadr[model.body_jntadr[b]] if f else -1 for b, f in zip(self.body, self.free)],
-                            dtype=np.int64)  # (m,) each free joint's first dof: v_WC (3), w_C (3)
-        self.size = np.array([c.container_type().size for c in specs], dtype=float).reshape(-1, 3)
-        self.half = 0.5 * self.size
-        self.mass = np.array([np.inf if c.fixed else c.total_mass() for c in specs])
-        self.I_Bo = np.tile(np.eye(3), (self.n, 1, 1))
-        for i in self.free_idx:
-            c = np.asarray(specs[i].com_offset, dtype=float)
-            I_com = np.diag(model.body_inertia[self.body[i]])  # principal moments, axes along C's (box inertia)
-            self.I_Bo[i] = I_com + self.mass[i] * (c @ c * np.eye(3) - np.outer(c, c))
-        self.type_index = np.asarray(effect.type_index, dtype=np.int64)
-        self.kappa_tt = np.asarray(effect.kappa_by_type, dtype=float)
-        friction = s.effects.friction
-        self.mu = 0.0 if friction is None else float(
-            self.cfg.mu if self.cfg.mu is not None else (friction.mu if friction.mu is not None else MU_SDF))
-        # the one contact step of both hosts; it keeps the held state between steps
-        self.step = ContactStep(self.size, self.free, self.mass, self.I_Bo, self.type_index, self.kappa_tt, self.cfg,
-                                self.mu, self.h, self.predictor, NEAR, force_scale=effect.modulus / FORCE_MODULUS)
-        self._last = None  # the latest step's candidate pairs once read (see last)
-        self.idle = False  # set by the loop for a step with every container asleep in MuJoCo (sleep.py): apply skips
-        self._idle = None  # an idle step's row of the step's counters (steps, calls, asked, reused, islands, ...)
-        self.costs = np.zeros(6)  # broad_s, predict_s, law_s [s]; steps, predict_calls, predict_pairs
-
-    def reset(self) -> None:
-        """Forgets the held state (no pair held, no body's last step) and the latest pairs."""
-        self.step.forget()
-        self._last = None
-
-    @property
-    def last(self):
-        """The latest step's candidate pairs (step.StepPairs), None when there were none; read
-        from the step on first use (apply does not read them: most steps need none of them)."""
-        if self._last is None and self.step.k:
-            self._last = self.step.pairs()
-        return self._last
-
-    def _idle_row(self) -> np.ndarray:
-        """What an idle step adds to step.cost[3:]: one step, nothing asked, every candidate pair
-        reused, every island and every free body with a candidate pair asleep (the latest step's)."""
-        if self._idle is None:
-            ia, ib, _ = self.step.touching()
-            both = np.concatenate([ia, ib])
-            islands = self.step.sleep_counts()["islands"]
-            self._idle = np.array([1, 0, 0, self.step.k, islands, islands, len(np.unique(both[self.free[both]]))], float)
-        return self._idle
-
-    def sleep_counts(self) -> dict:
-        """The latest step's sleeping figures (ContactStep.sleep_counts), those of _idle_row on an idle step."""
-        if not self.idle:
-            return self.step.sleep_counts()
-        row = self._idle_row()
-        return dict(zip(("asked", "reused", "islands", "islands_asleep", "bodies_asleep"), (int(x) for x in row[2:])))
-
-    def state(self, data) -> tuple:
-        """(p (m, 3) [m], R (m, 3, 3), w (m, 3) [rad/s], v (m, 3) [m/s]) of the body origins in
-        W from MuJoCo's data after mj_step1 (xpos, xmat at the step's state; qvel: v_W, w_C)."""
-        return bodies_from_mujoco(data, self.body, self.dof, self.free)
-
-    def touching(self, container: int) -> bool:
-        """Whether container (scene index) was in learned contact at the latest step."""
-        if not self.step.k:
-            return False
-        ia, ib, fn = self.step.touching() if self._last is None else (self._last.ia, self._last.ib, self._last.fn)
-        return bool(np.any(((ia == container) | (ib == container)) & (fn > 0)))
-
-    def apply(self, data) -> None:
-        """Writes this step's learned wrenches to data.xfrc_applied (zeroed first), at the COMs;
-        with idle set (every container asleep in MuJoCo, no load) counts the step and writes nothing."""
-        if self.idle:
-            self.costs[3] += 1
-            self.step.cost[3:] += self._idle_row()
-            return
-        self._idle = None
-        t0 = time.perf_counter()
-        p, R, w, v = self.state(data)
-        t1 = time.perf_counter()
-        before = self.step.cost.copy()
-        wrench, _ = self.step.step(p, R, w, v, read=False)
-        wrench_to_mujoco(data, wrench, self.body, self.free)
-        self._last = None
-        t2 = time.perf_counter()
-        spent = self.step.cost - before
-        # broad_s: the state and the candidates; predict_s: the predictor; law_s: the rest (law, xfrc); the
-        # pairs' records are read only when asked for (last, touching, rows: recording is timed apart)
-        self.costs[:3] += (t1 - t0 + spent[0], spent[1], t2 - t1 - spent[0] - spent[1])
-        self.costs[3] += 1
-        self.costs[4:] += spent[4:6]  # predict_calls, predict_pairs (step.costs(): the sleeping counts after)
-
-    def rows(self, step: int, t: float, offset: int) -> dict | None:
-        """The contact rows of the latest step's touching container pairs (a, b = container
-        index + offset: body_names indices), phi = minus the separating-axis depth [m]."""
-        if self.last is None:
-            return None
-        last = self.last
-        ia, ib, fn, p_W, n_W, f_W, p_AB, R_AB = last.ia, last.ib, last.fn, last.p_W, last.n_W, last.f_W, last.p_AB, last.R_AB
-        touch = np.flatnonzero(fn > 0)
-        if not len(touch):
-            return None
-        phi = np.empty(len(touch))
-        sA, sB = self.half[ia[touch]], self.half[ib[touch]]
-        for r, k in enumerate(touch):
-            phi[r] = box_box_signed_distance(p_AB[k][None], R_AB[k][None], sA[r], sB[r])[0]
-        k = len(touch)
-        return {"step": np.full(k, step), "time": np.full(k, t), "a": ia[touch] + offset, "b": ib[touch] + offset,
-                "p_W_cop": p_W[touch], "n_W": n_W[touch], "f_W": f_W[touch], "fn": fn[touch], "phi": phi,
-                "n_points": np.ones(k, dtype=int)}
-
-
 def simulate(scenario, *, duration: float | None = None, predictor: str | None = None, record_every: int = 1,
-             source: object = "<scenario>", contact: type | None = None, sleep: bool | None = None) -> LearnedRun:
+             source: object = "<scenario>", contact: type | None = None, sleep: bool | None = None,
+             subset: bool | None = None) -> LearnedRun:
     """Runs `scenario` for `duration` [s] (None: the scene's) with MuJoCo stepping the bodies
     and `predictor` deciding container contact (see the module docstring); records every
     `record_every` steps. contact: the class that applies the learned contact (None:
@@ -275,7 +149,9 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     warm-up step, then once a step after mj_step1: the scale study's window clock). Raises
     UnsupportedSceneError before anything runs; a run whose state turns non-finite stops there
     (trajectory.error set). sleep: resting islands asleep in MuJoCo (sleep.py; None: the scene's
-    learned_dynamics sleeping, enabled and mujoco_trees; False: always awake, MuJoCo's sleeping off)."""
+    learned_dynamics sleeping, enabled and mujoco_trees; False: always awake, MuJoCo's sleeping off).
+    subset: with sleeping, the learned step on the awake containers and their near neighbours alone
+    (subset.py; None: the contact class's `subset` flag, True unless set; False: on every container)."""
 
     mj = mujoco_module()
     prepared = prepare(scenario, predictor, source)
@@ -309,6 +185,9 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
     sleeper = HostSleep(mj, model, body_ids, [list(specs).index(n) for n in tr.free_names], law.n, cfg, h,
                         reducer, [tr.body_names.index(n) for n in tr.free_names]) if (
         (cfg.enabled and cfg.mujoco_trees) if sleep is None else sleep) else None
+    if sleeper is not None and (subset if subset is not None else law.subset):
+        law.subset = True
+        law.attach(sleeper.awake_scene)  # the learned step on the awake containers and their neighbours (subset.py)
     # the predictor's first call (a Python model's imports, caches) outside the timed steps
     mj.mj_step1(model, data)
     law.apply(data)
@@ -337,7 +216,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         if crane is not None:
             crane.apply(data, data.xmat[body_ids[j_crane]].reshape(3, 3).copy())
         if sleeper is not None:
-            sleeper.settle(data, learned, None if skip else law.step.touching)
+            sleeper.settle(data, learned, None if skip else law.candidates)
         t3 = time.perf_counter()
         mj.mj_step2(model, data)
         t4 = time.perf_counter()
@@ -386,7 +265,7 @@ def simulate(scenario, *, duration: float | None = None, predictor: str | None =
         "stability_max": max((r["explicit"] for r in prepared.effect.stability), default=0.0),
         "crane_release_time_s": None if crane is None else crane.release_time,
         "mujoco_sleep": None if sleeper is None else {**sleeper.summary(), "trees_asleep_at_end": int(
-            sleeper.asleep(data).sum()), "trees": len(body_ids)},
+            sleeper.asleep(data).sum()), "trees": len(body_ids), **law.subset_summary()},
     }
     run = MujocoRun(tables={"steps": steps, "contacts": contacts}, summary=summary, body_names=tr.body_names,
                     free_names=tr.free_names, mjcf=tr.mjcf)

@@ -64,12 +64,14 @@ class HostSleep:
         dof = model.jnt_dofadr[model.body_jntadr[self.body]]
         self.vidx = dof[:, None] + np.arange(6)
         self.free_of = np.full(n_scene, -1, dtype=int)  # scene index -> free index (-1: fixed)
-        self.free_of[np.asarray(scene_index, dtype=int)] = np.arange(len(self.body))
+        self.scene = np.asarray(scene_index, dtype=int)  # free index -> scene index
+        self.free_of[self.scene] = np.arange(len(self.body))
         self.v_sleep, self.w_sleep, self.t_sleep = float(sleeping.v_sleep), float(sleeping.w_sleep), float(sleeping.t_sleep)
         self.h = float(h)
         self.rest = np.zeros(len(self.body))  # [s] each free container's time at rest
         self.labels = np.arange(len(self.body))  # the latest islands (free index -> island)
         self._pairs = None  # the free pairs the labels were made from
+        self._source = None  # the candidate arrays given last (the same objects: the same labels)
         self._latest = (np.zeros(0, int), np.zeros(0, int))  # the latest candidate pairs (ia, ib), scene indices
         self.counts = np.zeros(3)  # steps, tree-steps asleep, steps with the learned step skipped
         self.every_tree = len(set(self.tree.tolist())) == model.ntree  # the containers are all of MuJoCo's trees
@@ -81,6 +83,12 @@ class HostSleep:
         """(f,) bool: the free containers' trees MuJoCo holds asleep now."""
         return data.tree_asleep[self.tree] >= 0
 
+    def awake_scene(self, data) -> np.ndarray:
+        """(n_scene,) bool: the free containers (scene order) whose trees MuJoCo holds awake now."""
+        awake = np.zeros(len(self.free_of), bool)
+        awake[self.scene] = ~self.asleep(data)
+        return awake
+
     def skip_learned(self, data) -> bool:
         """Whether this step can go without the learned step: every free container asleep."""
         skip = data.ntree_awake == 0 if self.every_tree else bool(self.asleep(data).all())
@@ -90,6 +98,9 @@ class HostSleep:
     def islands(self, ia, ib) -> np.ndarray:
         """(f,) island labels (each island's smallest free index) over the candidate pairs (ia, ib
         scene indices) between free containers; the latest labels again for the same pairs."""
+        if self._source is not None and ia is self._source[0] and ib is self._source[1]:
+            return self.labels  # the very arrays of the latest labels (the subset step's held pairs)
+        self._source = (ia, ib)
         a, b = self.free_of[np.asarray(ia, dtype=int)], self.free_of[np.asarray(ib, dtype=int)]
         keep = (a >= 0) & (b >= 0)
         a, b = a[keep], b[keep]
