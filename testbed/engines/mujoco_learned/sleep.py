@@ -44,6 +44,22 @@ import numpy as np
 TOLERANCE = 1.0  # [m/s, rad/s x dof_length] MuJoCo's own rest test: wide open, the host's test decides
 
 
+
+def component_labels(a, b, n: int) -> np.ndarray:
+    """(n,) connected-component labels (each the smallest member's index) of n bodies joined by the pairs
+    (a, b) ((k,) indices each): min-label propagation along the pairs, then pointer jumping (a stack's
+    height in sweeps)."""
+    labels = np.arange(n)
+    while True:
+        low = np.minimum(labels[a], labels[b])
+        new = labels.copy()
+        np.minimum.at(new, a, low)
+        np.minimum.at(new, b, low)
+        new = new[new]
+        if np.array_equal(new, labels):
+            return labels
+        labels = new
+
 class HostSleep:
     """Sleeping of the free containers' trees of one MuJoCo model (module docstring).
 
@@ -108,16 +124,7 @@ class HostSleep:
                 and np.array_equal(b, self._pairs[1]):
             return self.labels
         self._pairs = (a, b)
-        labels = np.arange(len(self.body))
-        while True:  # min-label propagation along the pairs, then pointer jumping: a stack's height in sweeps
-            low = np.minimum(labels[a], labels[b])
-            new = labels.copy()
-            np.minimum.at(new, a, low)
-            np.minimum.at(new, b, low)
-            new = new[new]
-            if np.array_equal(new, labels):
-                return labels
-            labels = new
+        return component_labels(a, b, len(self.body))
 
     def settle(self, data, learned, pairs) -> None:
         """After the learned wrenches (learned (f, 6), the rows written by the learned step alone)

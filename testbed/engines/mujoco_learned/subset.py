@@ -36,6 +36,7 @@ import dataclasses
 import numpy as np
 
 from testbed.effects.learned_dynamics.step import NEAR, ContactStep, StepPairs
+from testbed.engines.mujoco_learned.sleep import component_labels
 
 SLACK = 0.01  # [m] beyond the candidate margin in the neighbour test: rounding, and a step's motion (< 1 cm)
 BIG = 0.5  # [m] the potential neighbours' margin: found again once an awake box has moved BIG - NEAR - SLACK
@@ -54,21 +55,6 @@ def _take(pairs: StepPairs, rows) -> StepPairs:
 
 def _cat(a: StepPairs, b: StepPairs) -> StepPairs:
     return StepPairs(*(np.concatenate([getattr(a, f.name), getattr(b, f.name)]) for f in dataclasses.fields(StepPairs)))
-
-
-def _labels(a, b, n: int) -> np.ndarray:
-    """(n,) connected-component labels (smallest member) over the pairs (a, b)."""
-    labels = np.arange(n)
-    while len(a):
-        low = np.minimum(labels[a], labels[b])
-        new = labels.copy()
-        np.minimum.at(new, a, low)
-        np.minimum.at(new, b, low)
-        new = new[new]
-        if np.array_equal(new, labels):
-            break
-        labels = new
-    return labels
 
 
 class Subset:
@@ -169,7 +155,7 @@ class Subset:
         free = law.free
         a, b = self.out.ia, self.out.ib
         both = free[a] & free[b] & ~(loc[a] >= 0) & ~(loc[b] >= 0)
-        labels = _labels(a[both], b[both], n)
+        labels = component_labels(a[both], b[both], n)
         members = np.unique(np.concatenate([a[free[a] & (loc[a] < 0)], b[free[b] & (loc[b] < 0)]]))
         self.out_counts = (len(np.unique(labels[members])), len(members))
         self.idx, self.loc = idx, loc
