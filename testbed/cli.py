@@ -14,7 +14,7 @@ import sys
 
 from learned_contact.predictors.limits import ModelLimits, set_limits
 from testbed import commands
-from testbed.errors import SimulationError, TestbedError
+from testbed.errors import SimulationError, TestbedError, one_of
 
 # Control characters (a file name may hold a line break or a terminal escape) are shown escaped,
 # so that an error stays one line and cannot forge more output.
@@ -58,8 +58,21 @@ def _apply_model_limits(args) -> None:
                memory_bytes=int(args.model_memory * 2**30), max_nodes=args.model_max_nodes)
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse with the testbed's manners: a mistyped choice (an engine, a study, a command) gets "did
+    you mean", and a bad option is one line on stderr (the command, the option, what was expected), exit 2."""
+
+    def _check_value(self, action, value):
+        if action.choices is not None and value not in action.choices:
+            raise argparse.ArgumentError(action, f"invalid choice {value!r}; {one_of(value, action.choices)}")
+        super()._check_value(action, value)
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: {one_line(message)}\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="testbed", description="Container contact testbed (Drake).")
+    parser = Parser(prog="testbed", description="Container contact testbed (Drake).")
     sub = parser.add_subparsers(dest="command", required=True)
     for module_name in commands.COMMANDS:
         command = commands.load(module_name)

@@ -162,3 +162,20 @@ def test_set_reaches_a_rotations_angles():
     with pytest.raises(ScenarioError, match=r"containers\[1\]\.X_WC\.rotation\.deg: --set: the rotation is not given"):
         load_scenario("two_stack", overrides=["containers[1].X_WC.rotation=!AngleAxis {angle_deg: 10, axis: [0, 0, 1]}",
                                               "containers[1].X_WC.rotation.deg[2]=30"])
+
+
+@pytest.mark.parametrize("argv, wanted", [
+    (["compare", "two_stack", "--engine", "mujocoo"], "did you mean 'mujoco'?"),
+    (["study", "sclae"], "did you mean 'scale'?"),
+    (["compar", "two_stack"], "did you mean 'compare'?"),
+])
+def test_a_mistyped_choice_is_one_line_with_a_suggestion(argv, wanted, capsys):
+    """argparse's choices (engines, studies, commands) answer as the scene fields do: one line on stderr
+    naming the option and the closest choice, exit status 2, nothing on stdout."""
+    from testbed import cli
+
+    with pytest.raises(SystemExit) as info:
+        cli.main(argv)
+    out, err = capsys.readouterr()
+    assert info.value.code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1 and wanted in err and "expected one of:" in err

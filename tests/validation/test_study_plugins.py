@@ -100,4 +100,4 @@ def test_a_study_s_bad_option_is_one_line_and_exit_2(dummy_study, tmp_path, caps
 def test_an_unknown_study_is_refused_by_the_parser(capsys):
     with pytest.raises(SystemExit) as e:
         main(["study", "nonesuch"])
-    assert e.value.code == 2 and "invalid choice: 'nonesuch'" in capsys.readouterr().err
+    assert e.value.code == 2 and "invalid choice 'nonesuch'" in capsys.readouterr().err
