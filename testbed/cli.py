@@ -68,7 +68,8 @@ class Parser(argparse.ArgumentParser):
         super()._check_value(action, value)
 
     def error(self, message):
-        self.exit(2, f"{self.prog}: {one_line(message)}\n")
+        command = self.prog.partition(" ")[2]  # "compare" of "testbed compare"; "" for the top level
+        self.exit(2, f"testbed: error: {command + ': ' if command else ''}{one_line(message)}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
