@@ -138,10 +138,10 @@ def test_shipped_models_carry_the_chosen_modulus():
     import xml.etree.ElementTree as ET
     from pathlib import Path
 
-    from testbed.bodies.containers import HYDROELASTIC_MODULUS
+    from testbed.bodies.containers import CONTAINER_TYPES, HYDROELASTIC_MODULUS
 
     files = sorted((Path(__file__).resolve().parents[2] / "sdf" / "containers").glob("*.sdf"))
-    assert len(files) == 3
+    assert len(files) == len(CONTAINER_TYPES)  # one per catalogue type
     for f in files:
         (tag,) = [e for e in ET.parse(f).iter() if e.tag.endswith("hydroelastic_modulus")]
         assert float(tag.text) == HYDROELASTIC_MODULUS, f

@@ -23,7 +23,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from learned_contact import sources
+from learned_contact.interface import SIZE_TOLERANCE, in_size_range
 from testbed.bodies.containers import HYDROELASTIC_MODULUS
 from testbed.compare import Candidate, compare_candidates
 from testbed.compare.candidates import learned_loop
@@ -54,6 +57,16 @@ from testbed.validation.sensitivity import SENSITIVITY_CHECK
 SENSITIVITY_LABEL = "improved, every point +5 cm along A's x (sensitivity check)"
 PREDICTORS = sources.SHIPPED_NAMES  # ("improved", "paper")
 GATED = sources.DEFAULT  # the shipped predictor the gates judge
+def _answers_sizes(spec: str, scenario) -> bool:
+    """Whether the predictor `spec` answers every container size of `scenario` (its supported_sizes within
+    SIZE_TOLERANCE per axis, or inside its size_range)."""
+    predictor = sources.load_predictor(spec)
+    supported = np.asarray(predictor.supported_sizes, dtype=float).reshape(-1, 3)
+    sizes = np.array([c.container_type().size for c in scenario.containers], dtype=float).reshape(-1, 3)
+    near = np.abs(sizes[:, None, :] - supported[None]).max(axis=2).min(axis=1) <= SIZE_TOLERANCE
+    return bool(np.all(near | in_size_range(sizes, getattr(predictor, "size_range", None))))
+
+
 def closed_loop_cases(scenes, suffix: str = "") -> list[Case]:
     return [Case(f"closed-{s}{suffix}", "closed_loop", {"scene": s, "duration": d, "predictors": list(PREDICTORS)})
             for s, d in scenes]
@@ -82,9 +95,12 @@ class ClosedLoopCase(CaseKind):
     def run(self, scene: str, duration: float, predictors=PREDICTORS) -> dict:
         import tempfile
 
+        scenario = load_scenario(resolve_scene_path(scene))
+        # a predictor that declares fewer sizes (the paper's MLP: 20 / 40 ft) sits out a scene of other sizes
+        predictors = [p for p in predictors if p == GATED or _answers_sizes(p, scenario)]
         chosen = [learned_loop(p) for p in predictors]
         with tempfile.TemporaryDirectory(prefix="closed-loop-") as tmp:
-            f = compare_candidates(load_scenario(resolve_scene_path(scene)), [*chosen, Candidate.point()],
+            f = compare_candidates(scenario, [*chosen, Candidate.point()],
                                    duration=duration, out_dir=f"{tmp}/compare")
             runs = [(p, {**f, **f["candidates"][c.label]}, f"{tmp}/compare/judged/{slug(c.label)}")
                     for p, c in zip(predictors, chosen)]
