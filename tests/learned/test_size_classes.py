@@ -76,7 +76,10 @@ def test_a_generic_code_is_a_box_of_that_size():
         container_type("box:7.5,2.438")
 
 
+# once: Drake's static labels are the same bits under both releases CI runs (learned_contact/data/labels.py:
+# 1.51.1 and 1.58.0 on 3,000 poses), so suite 2 would repeat suite 1's figures; ~3 min of one worker
 @pytest.mark.slow
+@pytest.mark.once
 @pytest.mark.parametrize("size_class", CLASSES[1:], ids=[c.name for c in CLASSES[1:]])
 def test_sizes_not_fitted_on_hold_the_fitted_sizes_bounds(size_class):
     """On held-out poses labelled by Drake for the class's sizes (the gates' seed 0 and 400 proposals
